@@ -1,0 +1,35 @@
+# simroad — two commands do all set-up: `make demo` and `make test`.
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
+
+.PHONY: all demo test bench figures clean help
+
+help:
+	@echo "make demo     set up .venv and run the main job (writes runs/demo)"
+	@echo "make test     set up .venv with test extras and run the test suite"
+	@echo "make bench    run the benchmarks (medians and side-by-side ratios)"
+	@echo "make figures  regenerate the pictures in docs/"
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+	rm -f $(VENV)/.installed-*
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/python -m simroad.experiments.demo --out runs/demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/run.py
+
+figures: $(STAMP)
+	$(BIN)/simroad figure camera --out docs/camera.png
+
+clean:
+	rm -rf $(VENV) runs .pytest_cache

@@ -1,0 +1,212 @@
+"""Input checks that fail with a message naming the parameter, what was expected,
+what came, and how to fix it.
+
+Every public entry point of simroad validates its arguments through these helpers,
+so users never see a deep traceback from NumPy or OpenCV.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "SimroadError",
+    "check_choice",
+    "check_finite_number",
+    "check_image",
+    "check_in_range",
+    "check_int_in_range",
+    "check_mask",
+    "normalize_rng",
+]
+
+
+class SimroadError(ValueError):
+    """A user-facing error: bad input, with the fix in its message."""
+
+
+def _did_you_mean(value: str, valid: Iterable[str]) -> str:
+    close = difflib.get_close_matches(str(value), list(valid), n=1, cutoff=0.5)
+    return f" Did you mean {close[0]!r}?" if close else ""
+
+
+def check_choice(name: str, value: Any, valid: Iterable[str]) -> str:
+    """Return ``value`` if it is one of ``valid``, else raise listing the valid ones.
+
+    >>> check_choice("scenario", "racetrack", ["racetrack", "highway"])
+    'racetrack'
+    """
+    valid = list(valid)
+    if not isinstance(value, str) or value not in valid:
+        hint = _did_you_mean(value, valid) if isinstance(value, str) else ""
+        raise SimroadError(
+            f"{name}: unknown value {value!r}; expected one of "
+            f"{', '.join(repr(v) for v in valid)}.{hint}"
+        )
+    return value
+
+
+def check_finite_number(name: str, value: Any) -> float:
+    """Return ``value`` as a float, raising if it is not a finite real number."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise SimroadError(f"{name}: expected a number, got {type(value).__name__} {value!r}.")
+    value = float(value)
+    if not math.isfinite(value):
+        raise SimroadError(f"{name}: expected a finite number, got {value!r}.")
+    return value
+
+
+def check_in_range(
+    name: str,
+    value: Any,
+    low: float,
+    high: float,
+    *,
+    unit: str = "",
+    low_inclusive: bool = True,
+    high_inclusive: bool = True,
+) -> float:
+    """Return ``value`` as a float if it lies in the interval, else raise naming it.
+
+    >>> check_in_range("severity", 0.5, 0.0, 1.0)
+    0.5
+    """
+    value = check_finite_number(name, value)
+    ok_low = value >= low if low_inclusive else value > low
+    ok_high = value <= high if high_inclusive else value < high
+    if not (ok_low and ok_high):
+        lb = "[" if low_inclusive else "("
+        hb = "]" if high_inclusive else ")"
+        u = f" {unit}" if unit else ""
+        raise SimroadError(
+            f"{name}: expected a value in {lb}{low:g}, {high:g}{hb}{u}, got {value:g}{u}. "
+            f"Pass a value inside that range."
+        )
+    return value
+
+
+def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:
+    """Return ``value`` as an int in ``[low, high]``, else raise naming it."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise SimroadError(
+                f"{name}: expected an integer in [{low}, {high}], got "
+                f"{type(value).__name__} {value!r}."
+            )
+    value = int(value)
+    if not low <= value <= high:
+        raise SimroadError(
+            f"{name}: expected an integer in [{low}, {high}], got {value}. "
+            f"Pass a value inside that range."
+        )
+    return value
+
+
+def check_image(
+    name: str,
+    image: Any,
+    *,
+    dtype: str | tuple[str, ...] = ("uint8", "float32", "float64"),
+    channels: int | None = 3,
+    min_size: int = 1,
+) -> np.ndarray:
+    """Check an image array and return it (as an ndarray, not copied).
+
+    Parameters
+    ----------
+    name : str
+        The parameter name used in error messages.
+    image : array_like
+        ``(H, W, C)`` when ``channels`` is given, ``(H, W)`` when ``channels=None``
+        is meant to accept single-channel images only (``channels=0``) … see below.
+    dtype : str or tuple of str
+        Accepted dtypes. Float images must be finite and lie in [0, 1].
+    channels : int or None
+        Required number of channels; ``0`` means a 2-D (H, W) image; ``None``
+        accepts either (H, W) or (H, W, C).
+    min_size : int
+        Minimum height and width in pixels.
+    """
+    if not isinstance(image, np.ndarray):
+        raise SimroadError(
+            f"{name}: expected a numpy array, got {type(image).__name__}. "
+            f"Convert it with numpy.asarray(...)."
+        )
+    dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
+    if image.dtype.name not in dtypes:
+        raise SimroadError(
+            f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}. "
+            + (
+                "Convert with image.astype(np.uint8) (values 0-255) "
+                "or image.astype(np.float32) / 255 (values in [0, 1])."
+            )
+        )
+    if channels == 0:
+        shape_ok = image.ndim == 2
+        expected = "(H, W)"
+    elif channels is None:
+        shape_ok = image.ndim == 2 or image.ndim == 3
+        expected = "(H, W) or (H, W, C)"
+    else:
+        shape_ok = image.ndim == 3 and image.shape[2] == channels
+        expected = f"(H, W, {channels})"
+    if not shape_ok:
+        raise SimroadError(f"{name}: expected an array of shape {expected}, got shape {image.shape}.")
+    h, w = image.shape[:2]
+    if h < min_size or w < min_size:
+        raise SimroadError(
+            f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height)."
+        )
+    if image.dtype.kind == "f":
+        if not np.isfinite(image).all():
+            raise SimroadError(f"{name}: contains NaN or infinite values; replace them first.")
+        lo, hi = float(image.min()), float(image.max())
+        if lo < 0.0 or hi > 1.0:
+            raise SimroadError(
+                f"{name}: float images must lie in [0, 1], got values in [{lo:g}, {hi:g}]. "
+                f"Divide uint8 images by 255."
+            )
+    return image
+
+
+def check_mask(name: str, mask: Any, shape: tuple[int, int] | None = None) -> np.ndarray:
+    """Check a boolean (H, W) mask, optionally of a given shape, and return it."""
+    if not isinstance(mask, np.ndarray):
+        raise SimroadError(f"{name}: expected a numpy bool array, got {type(mask).__name__}.")
+    if mask.dtype != bool:
+        if mask.dtype.kind in "iu" and mask.size and set(np.unique(mask)).issubset({0, 1}):
+            mask = mask.astype(bool)
+        else:
+            raise SimroadError(
+                f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. "
+                f"Convert with mask > 0."
+            )
+    if mask.ndim != 2:
+        raise SimroadError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}.")
+    if shape is not None and mask.shape != tuple(shape):
+        raise SimroadError(
+            f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}."
+        )
+    return mask
+
+
+def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -> np.random.Generator:
+    """Return a Generator from a Generator or an integer seed.
+
+    ``None`` is refused on purpose: every random draw in simroad must be seeded.
+    """
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        return np.random.default_rng(int(rng))
+    raise SimroadError(
+        f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. "
+        f"Pass rng=np.random.default_rng(seed)."
+    )

@@ -1,0 +1,21 @@
+"""The dashboard camera: world raster, pinhole geometry, rendering with ground truth."""
+
+from simroad.camera.geometry import CameraConfig, PinholeCamera
+from simroad.camera.render import CameraRenderer, Frame, VehicleBox, render_bev
+from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE, WorldRaster
+
+__all__ = [
+    "ASPHALT",
+    "MARKING",
+    "ROADSIDE",
+    "SHOULDER",
+    "SKY",
+    "VEHICLE",
+    "CameraConfig",
+    "CameraRenderer",
+    "Frame",
+    "PinholeCamera",
+    "VehicleBox",
+    "WorldRaster",
+    "render_bev",
+]

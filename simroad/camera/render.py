@@ -1,0 +1,255 @@
+"""Render what the dashboard camera sees, with exact ground truth.
+
+One ``cv2.warpPerspective`` of the world window per frame for the colour and one
+nearest-neighbour warp for the material (hence the road mask); the sky and the
+per-pixel ground distance depend only on the mounting and are computed once.
+Other vehicles are boxes with height, clipped at the near plane and painted far to
+near.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from simroad.camera.geometry import PinholeCamera
+from simroad.camera.world import ASPHALT, SKY, VEHICLE, WorldRaster
+
+__all__ = ["Frame", "CameraRenderer", "VehicleBox", "render_bev"]
+
+VEHICLE_HEIGHT_M = 1.5
+_NEAR_M = 0.3
+
+
+@dataclass(frozen=True)
+class VehicleBox:
+    """A vehicle to draw: centre ``(x, y)`` in m, heading in rad, size in m, RGB."""
+
+    x: float
+    y: float
+    heading: float
+    length: float
+    width: float
+    rgb: tuple[int, int, int]
+    height: float = VEHICLE_HEIGHT_M
+
+    def corners(self) -> np.ndarray:
+        """Ground corners (4, 2): front-left, front-right, rear-right, rear-left."""
+        c, s = math.cos(self.heading), math.sin(self.heading)
+        fwd, right = np.array([c, s]), np.array([-s, c])
+        hl, hw = self.length / 2, self.width / 2
+        ctr = np.array([self.x, self.y])
+        return np.array(
+            [ctr + hl * fwd - hw * right, ctr + hl * fwd + hw * right, ctr - hl * fwd + hw * right, ctr - hl * fwd - hw * right]
+        )
+
+
+@dataclass
+class Frame:
+    """One rendered camera frame.
+
+    Attributes
+    ----------
+    rgb : ndarray, uint8, (H, W, 3)
+    material : ndarray, uint8, (H, W)
+        Material codes of :mod:`simroad.camera.world` (road, marking, shoulder,
+        roadside, vehicle, sky).
+    road_mask : ndarray, bool, (H, W)
+        Visible drivable surface (lanes and their markings).
+    depth : ndarray, float32, (H, W)
+        Ground distance in metres; ``inf`` for sky and beyond range.
+    """
+
+    rgb: np.ndarray
+    material: np.ndarray
+    road_mask: np.ndarray
+    depth: np.ndarray
+    vehicles: list[VehicleBox] = field(default_factory=list)
+
+
+def _sky_image(camera: PinholeCamera, rng: np.random.Generator) -> np.ndarray:
+    c = camera.config
+    zenith = np.array([95, 140, 200], dtype=np.float32) + rng.normal(0, 8, 3).astype(np.float32)
+    horizon = np.array([200, 212, 225], dtype=np.float32) + rng.normal(0, 5, 3).astype(np.float32)
+    rows = np.arange(c.height, dtype=np.float32)
+    # Elevation angle of each row's central ray, 0 at the horizon.
+    fy = camera.K[1, 1]
+    elev = np.degrees(np.arctan((camera.horizon_row - rows) / fy))
+    tt = np.clip(elev / 25.0, 0.0, 1.0)[:, None]
+    col = horizon[None, :] * (1 - tt) + zenith[None, :] * tt
+    return np.repeat(col[:, None, :], c.width, axis=1).astype(np.float32)
+
+
+class CameraRenderer:
+    """Renders frames of a :class:`WorldRaster` through a :class:`PinholeCamera`.
+
+    Parameters
+    ----------
+    camera : PinholeCamera
+    world : WorldRaster
+    rng : numpy.random.Generator
+        Draws the sky colours.
+    """
+
+    def __init__(self, camera: PinholeCamera, world: WorldRaster, rng: np.random.Generator) -> None:
+        self.camera = camera
+        self.world = world
+        c = camera.config
+        sky = _sky_image(camera, rng)
+        depth = camera.depth
+        # Aerial perspective over the last 40 % of the range hides the cut-off.
+        fade_start = 0.6 * c.max_range_m
+        with np.errstate(invalid="ignore"):
+            t = np.clip((depth - fade_start) / (c.max_range_m - fade_start), 0.0, 1.0)
+        t = np.where(camera.ground_valid, t * t * (3 - 2 * t), 0.0).astype(np.float32)
+        rows = np.nonzero((t > 0).any(axis=1))[0]
+        self._fade_rows = slice(int(rows.min()), int(rows.max()) + 1) if len(rows) else slice(0, 0)
+        self._fade_alpha = t[self._fade_rows, :, None]
+        haze = sky[max(0, min(c.height - 1, int(round(camera.horizon_row))))].mean(axis=0)
+        self._haze = haze.astype(np.float32)
+        self._sky_rgb = np.clip(sky, 0, 255).astype(np.uint8)
+        self._sky = ~camera.ground_valid
+        # Footprint of the visible ground in the ego frame, for the window request.
+        g = camera._ego_ground[camera.ground_valid]
+        hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
+        self._footprint = np.vstack([hull, [[c.forward_offset_m, 0.0]]]).astype(float)
+
+    def footprint_world(self) -> np.ndarray:
+        """World (x, y) of the visible-ground footprint polygon for the current pose."""
+        x, y, h = self.camera.pose
+        ch, sh = math.cos(h), math.sin(h)
+        f = self._footprint
+        return np.column_stack([x + ch * f[:, 0] - sh * f[:, 1], y + sh * f[:, 0] + ch * f[:, 1]])
+
+    def render(self, pose: tuple[float, float, float], vehicles: list[VehicleBox] = ()) -> Frame:
+        """Render the frame seen from ego ``pose = (x, y, heading)``."""
+        cam = self.camera
+        cam.set_pose(*pose)
+        fp = self.footprint_world()
+        win = self.world.window(*fp.min(axis=0), *fp.max(axis=0))
+        M = win.texel_from_world @ cam.H_world_from_image
+        size = (cam.config.width, cam.config.height)
+        rgb = cv2.warpPerspective(win.rgb, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+        material = cv2.warpPerspective(win.material, M, size, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+        fr = self._fade_rows
+        if fr.stop > fr.start:
+            band = rgb[fr].astype(np.float32)
+            band += self._fade_alpha * (self._haze - band)
+            rgb[fr] = band.astype(np.uint8)
+        rgb[self._sky] = self._sky_rgb[self._sky]
+        material[self._sky] = SKY
+        depth = cam.depth
+        if vehicles:
+            depth = depth.copy()
+            self._paint_vehicles(rgb, material, depth, vehicles)
+        road = material >= ASPHALT
+        road &= material <= ASPHALT + 1
+        return Frame(rgb, material, road, depth, list(vehicles))
+
+    # -------------------------------------------------------------- vehicles
+    def _paint_vehicles(self, rgb, material, depth, vehicles) -> None:
+        cam = self.camera
+        cpos = cam.position_world
+        order = sorted(vehicles, key=lambda v: -math.hypot(v.x - cpos[0], v.y - cpos[1]))
+        for v in order:
+            dist = math.hypot(v.x - cpos[0], v.y - cpos[1])
+            if dist > cam.config.max_range_m + v.length:
+                continue
+            base = v.corners()
+            faces = _box_faces(base, v.height)
+            ctr3 = np.array([v.x, v.y, v.height / 2])
+            for poly3, shade in faces:
+                normal_pt = poly3.mean(axis=0)
+                outward = normal_pt - ctr3
+                cam3 = np.array([cpos[0], cpos[1], cam.config.mount_height_m])
+                if np.dot(outward, cam3 - normal_pt) <= 0:
+                    continue  # back face
+                pc = _clip_near(cam.world_to_camera(poly3))
+                if len(pc) < 3:
+                    continue
+                uv = cam.camera_to_image(pc)
+                pts = np.round(uv * 16).astype(np.int32)
+                colour = tuple(int(min(255, ch * shade)) for ch in v.rgb)
+                cv2.fillConvexPoly(rgb, pts, colour, lineType=cv2.LINE_8, shift=4)
+                cv2.fillConvexPoly(material, pts, VEHICLE, lineType=cv2.LINE_8, shift=4)
+                d = float(np.min(np.hypot(poly3[:, 0] - cpos[0], poly3[:, 1] - cpos[1])))
+                cv2.fillConvexPoly(depth, pts, d, lineType=cv2.LINE_8, shift=4)
+
+
+def _box_faces(base: np.ndarray, height: float) -> list[tuple[np.ndarray, float]]:
+    lo = np.column_stack([base, np.zeros(4)])
+    hi = np.column_stack([base, np.full(4, height)])
+    faces = [(np.array([hi[0], hi[1], hi[2], hi[3]]), 1.0)]
+    shades = (0.85, 0.7, 0.55, 0.7)  # front, right, rear, left
+    for k in range(4):
+        a, b = k, (k + 1) % 4
+        faces.append((np.array([lo[a], lo[b], hi[b], hi[a]]), shades[k]))
+    return faces
+
+
+def _clip_near(poly: np.ndarray, near: float = _NEAR_M) -> np.ndarray:
+    """Sutherland-Hodgman clip of a camera-frame polygon to ``z >= near``."""
+    out = []
+    n = len(poly)
+    for k in range(n):
+        p, q = poly[k], poly[(k + 1) % n]
+        pin, qin = p[2] >= near, q[2] >= near
+        if pin:
+            out.append(p)
+        if pin != qin:
+            t = (near - p[2]) / (q[2] - p[2])
+            out.append(p + t * (q - p))
+    return np.array(out) if out else np.zeros((0, 3))
+
+
+def render_bev(
+    world: WorldRaster,
+    pose: tuple[float, float, float],
+    *,
+    size: tuple[int, int] = (240, 320),
+    metres_per_px: float = 0.25,
+    behind_m: float = 15.0,
+    vehicles: list[VehicleBox] = (),
+    ego: VehicleBox | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bird's-eye view of the world around the ego, heading pointing up.
+
+    Parameters
+    ----------
+    size : (width, height)
+        Output size in pixels.
+    metres_per_px : float
+        Ground resolution of the view.
+    behind_m : float
+        Ground distance shown behind the ego.
+
+    Returns
+    -------
+    rgb : uint8 (H, W, 3)
+    road_mask : bool (H, W)
+    """
+    W, H = size
+    x, y, h = pose
+    ch, sh = math.cos(h), math.sin(h)
+    fwd, right = np.array([ch, sh]), np.array([-sh, ch])
+    ego_px = np.array([W / 2.0, H - behind_m / metres_per_px])
+    # world = ego + (row_up * m) * fwd + (col - cx) * m * right
+    A = np.zeros((3, 3))
+    A[:2, 0] = right * metres_per_px
+    A[:2, 1] = -fwd * metres_per_px
+    A[:2, 2] = np.array([x, y]) - ego_px[0] * right * metres_per_px + ego_px[1] * fwd * metres_per_px
+    A[2, 2] = 1.0
+    corners = np.array([[0, 0, 1], [W, 0, 1], [0, H, 1], [W, H, 1]], dtype=float) @ A.T
+    win = world.window(*corners[:, :2].min(axis=0), *corners[:, :2].max(axis=0), slot="bev")
+    M = (win.texel_from_world @ A)[:2]
+    rgb = cv2.warpAffine(win.rgb, M, (W, H), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
+    mat = cv2.warpAffine(win.material, M, (W, H), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP)
+    road = (mat >= ASPHALT) & (mat <= ASPHALT + 1)
+    Ainv = np.linalg.inv(A)
+    for v in list(vehicles) + ([ego] if ego is not None else []):
+        pts = np.column_stack([v.corners(), np.ones(4)]) @ Ainv.T
+        cv2.fillConvexPoly(rgb, np.round(pts[:, :2] * 16).astype(np.int32), v.rgb, shift=4)
+    return rgb, road

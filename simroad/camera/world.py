@@ -1,0 +1,265 @@
+"""The ground-plane world raster: road surface, markings, shoulders, roadside.
+
+Built once per episode from highway-env's road network, using each lane's own
+geometry (``lane.position(s, lateral)``), never its colours. The world is cut into
+square tiles rendered lazily and cached, so a 10 km highway never needs one giant
+raster; the camera asks for a window covering its view and gets a contiguous
+array assembled from tiles.
+
+Materials
+---------
+Every texel carries a material code; the road mask is ``material >= ASPHALT`` on the
+ground (markings count as road).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from simroad.camera.palette import Palette, draw_palette, make_texture
+
+__all__ = [
+    "ASPHALT",
+    "MARKING",
+    "ROADSIDE",
+    "SHOULDER",
+    "SKY",
+    "VEHICLE",
+    "LaneShape",
+    "Window",
+    "WorldRaster",
+    "lane_shapes",
+]
+
+ROADSIDE, SHOULDER, ASPHALT, MARKING, VEHICLE, SKY = 0, 1, 2, 3, 4, 5
+
+MARKING_WIDTH_M = 0.15
+DASH_LENGTH_M = 3.0
+DASH_PERIOD_M = 12.0
+_TEX_SIZE = 512
+_SHIFT = 4  # fixed-point bits for cv2.fillPoly
+_SCALE = 1 << _SHIFT
+
+
+@dataclass
+class LaneShape:
+    """A lane's rasterisable outline in world coordinates."""
+
+    surface: np.ndarray  # (N, 2) polygon of the drivable lane surface
+    shoulder: np.ndarray  # (N, 2) polygon widened by the shoulder width
+    markings: list[np.ndarray]  # polygons of painted lines, inside the lane
+    bbox: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax incl. shoulder
+
+
+def _sample_s(lane) -> np.ndarray:
+    length = float(lane.length)
+    if type(lane).__name__ == "StraightLane":
+        return np.array([0.0, length])
+    n = max(2, int(math.ceil(length / 1.0)) + 1)
+    return np.linspace(0.0, length, n)
+
+
+def _edge(lane, s: np.ndarray, lat: np.ndarray | float) -> np.ndarray:
+    lat = np.broadcast_to(np.asarray(lat, dtype=float), s.shape)
+    return np.array([lane.position(float(si), float(li)) for si, li in zip(s, lat)])
+
+
+def _band(lane, s: np.ndarray, lat_a, lat_b) -> np.ndarray:
+    a = _edge(lane, s, lat_a)
+    b = _edge(lane, s, lat_b)
+    return np.vstack([a, b[::-1]])
+
+
+def _dash_ranges(length: float) -> list[tuple[float, float]]:
+    out = []
+    start = 0.0
+    while start < length:
+        out.append((start, min(start + DASH_LENGTH_M, length)))
+        start += DASH_PERIOD_M
+    return out
+
+
+def lane_shapes(network, shoulder_width_m: float) -> list[LaneShape]:
+    """Outline every lane of a highway-env ``RoadNetwork``."""
+    shapes = []
+    for lane in network.lanes_list():
+        s = _sample_s(lane)
+        half = np.array([lane.width_at(float(si)) / 2.0 for si in s])
+        surface = _band(lane, s, -half, half)
+        shoulder = _band(lane, s, -half - shoulder_width_m, half + shoulder_width_m)
+        markings = []
+        line_types = lane.line_types or (0, 0)
+        for side, kind in enumerate(line_types):
+            if kind == 0:  # LineType.NONE
+                continue
+            sign = -1.0 if side == 0 else 1.0
+            ranges = [(0.0, float(lane.length))] if kind != 1 else _dash_ranges(float(lane.length))
+            for s0, s1 in ranges:
+                if s1 - s0 < 1e-3:
+                    continue
+                n = 2 if type(lane).__name__ == "StraightLane" else max(2, int(math.ceil((s1 - s0) / 0.5)) + 1)
+                ss = np.linspace(s0, s1, n)
+                hw = np.array([lane.width_at(float(si)) / 2.0 for si in ss])
+                markings.append(_band(lane, ss, sign * hw, sign * (hw - MARKING_WIDTH_M)))
+        lo = shoulder.min(axis=0)
+        hi = shoulder.max(axis=0)
+        shapes.append(LaneShape(surface, shoulder, markings, (lo[0], lo[1], hi[0], hi[1])))
+    return shapes
+
+
+@dataclass
+class Window:
+    """A contiguous piece of the world raster.
+
+    ``rgb`` is uint8 (h, w, 3) and ``material`` uint8 (h, w); texel ``(row, col)``
+    has its centre at world ``(x0 + (col + 0.5) * texel_m, y0 + (row + 0.5) * texel_m)``.
+    """
+
+    rgb: np.ndarray
+    material: np.ndarray
+    x0: float
+    y0: float
+    texel_m: float
+
+    @property
+    def texel_from_world(self) -> np.ndarray:
+        t = self.texel_m
+        return np.array([[1 / t, 0, -self.x0 / t - 0.5], [0, 1 / t, -self.y0 / t - 0.5], [0, 0, 1.0]])
+
+    def contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> bool:
+        h, w = self.material.shape
+        return (
+            xmin >= self.x0
+            and ymin >= self.y0
+            and xmax <= self.x0 + w * self.texel_m
+            and ymax <= self.y0 + h * self.texel_m
+        )
+
+
+class WorldRaster:
+    """Lazily tiled ground raster of a road network.
+
+    Parameters
+    ----------
+    network : highway_env.road.road.RoadNetwork
+        The road network to draw.
+    rng : numpy.random.Generator
+        Draws the palette and textures.
+    texel_m : float
+        Texel size in metres.
+    palette : Palette, optional
+        Fixed colours; drawn from ``rng`` when omitted.
+    tile_px : int
+        Tile side in texels.
+    max_tiles : int
+        Size of the tile cache.
+    """
+
+    def __init__(
+        self,
+        network,
+        rng: np.random.Generator,
+        *,
+        texel_m: float = 0.1,
+        palette: Palette | None = None,
+        tile_px: int = 256,
+        max_tiles: int = 400,
+    ) -> None:
+        self.texel_m = float(texel_m)
+        self.tile_px = int(tile_px)
+        self.max_tiles = int(max_tiles)
+        self.palette = palette or draw_palette(rng)
+        self.shapes = lane_shapes(network, self.palette.shoulder_width_m)
+        p = self.palette
+        blotch_px = 2.0 / self.texel_m
+        self._tex = {
+            ROADSIDE: make_texture(p.roadside_rgb, _TEX_SIZE, rng, grain=p.grain * 1.6, blotch=14.0, blotch_scale_px=blotch_px * 3),
+            SHOULDER: make_texture(p.shoulder_rgb, _TEX_SIZE, rng, grain=p.grain * 1.3, blotch=8.0, blotch_scale_px=blotch_px),
+            ASPHALT: make_texture(p.asphalt_rgb, _TEX_SIZE, rng, grain=p.grain, blotch=5.0, blotch_scale_px=blotch_px * 2),
+            MARKING: make_texture(p.marking_rgb, _TEX_SIZE, rng, grain=p.grain * 0.6, blotch=4.0, blotch_scale_px=blotch_px),
+        }
+        self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
+        self._windows: dict[str, Window] = {}
+
+    # ----------------------------------------------------------------- tiles
+    @property
+    def tile_m(self) -> float:
+        return self.tile_px * self.texel_m
+
+    def tile(self, i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
+        """Return (rgb, material) of tile column ``i``, row ``j`` (cached)."""
+        key = (i, j)
+        hit = self._tiles.get(key)
+        if hit is not None:
+            self._tiles.move_to_end(key)
+            return hit
+        out = self._render_tile(i, j)
+        self._tiles[key] = out
+        if len(self._tiles) > self.max_tiles:
+            self._tiles.popitem(last=False)
+        return out
+
+    def _render_tile(self, i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
+        T, t = self.tile_px, self.texel_m
+        x0, y0 = i * self.tile_m, j * self.tile_m
+        x1, y1 = x0 + self.tile_m, y0 + self.tile_m
+        material = np.zeros((T, T), dtype=np.uint8)
+        visible = [s for s in self.shapes if s.bbox[0] <= x1 and s.bbox[2] >= x0 and s.bbox[1] <= y1 and s.bbox[3] >= y0]
+
+        def fixed(poly: np.ndarray) -> np.ndarray:
+            pts = (poly - (x0, y0)) / t - 0.5
+            return np.round(pts * _SCALE).astype(np.int32)
+
+        for code, attr in ((SHOULDER, "shoulder"), (ASPHALT, "surface")):
+            polys = [fixed(getattr(s, attr)) for s in visible]
+            if polys:
+                for poly in polys:  # one call per polygon: overlapping lanes must not XOR
+                    cv2.fillPoly(material, [poly], code, lineType=cv2.LINE_8, shift=_SHIFT)
+        for s in visible:
+            for m in s.markings:
+                cv2.fillPoly(material, [fixed(m)], MARKING, lineType=cv2.LINE_8, shift=_SHIFT)
+
+        ti, tj = (j * T) % _TEX_SIZE, (i * T) % _TEX_SIZE
+        sl = (slice(ti, ti + T), slice(tj, tj + T))
+        rgb = self._tex[ROADSIDE][sl].copy()
+        for code in (SHOULDER, ASPHALT, MARKING):
+            sel = material == code
+            if sel.any():
+                rgb[sel] = self._tex[code][sl][sel]
+        return np.clip(rgb, 0, 255).astype(np.uint8), material
+
+    # ---------------------------------------------------------------- window
+    def window(self, xmin: float, ymin: float, xmax: float, ymax: float, *, slot: str = "camera") -> Window:
+        """A contiguous window covering the world box (metres), reused while it fits.
+
+        Each ``slot`` (the camera view, the bird's-eye view, ...) keeps its own window.
+        """
+        w = self._windows.get(slot)
+        if w is not None and w.contains(xmin, ymin, xmax, ymax):
+            return w
+        tm = self.tile_m
+        # One tile of slack on every side, so small moves reuse the window.
+        i0, i1 = math.floor(xmin / tm) - 1, math.floor(xmax / tm) + 1
+        j0, j1 = math.floor(ymin / tm) - 1, math.floor(ymax / tm) + 1
+        T = self.tile_px
+        nx, ny = i1 - i0 + 1, j1 - j0 + 1
+        rgb = np.empty((ny * T, nx * T, 3), dtype=np.uint8)
+        material = np.empty((ny * T, nx * T), dtype=np.uint8)
+        for j in range(j0, j1 + 1):
+            for i in range(i0, i1 + 1):
+                trgb, tmat = self.tile(i, j)
+                r, c = (j - j0) * T, (i - i0) * T
+                rgb[r : r + T, c : c + T] = trgb
+                material[r : r + T, c : c + T] = tmat
+        self._windows[slot] = Window(rgb, material, i0 * tm, j0 * tm, self.texel_m)
+        return self._windows[slot]
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """World bounding box (xmin, ymin, xmax, ymax) of all lanes and shoulders."""
+        b = np.array([s.bbox for s in self.shapes])
+        return float(b[:, 0].min()), float(b[:, 1].min()), float(b[:, 2].max()), float(b[:, 3].max())
