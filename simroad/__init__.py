@@ -12,6 +12,7 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 from simroad._validation import SimroadError  # noqa: E402
+from simroad.envs import ENV_ID, RoadCamConfig, RoadCamEnv  # noqa: E402
 
 __version__ = "0.1.0"
-__all__ = ["SimroadError", "__version__"]
+__all__ = ["ENV_ID", "RoadCamConfig", "RoadCamEnv", "SimroadError", "__version__"]

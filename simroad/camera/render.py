@@ -132,7 +132,8 @@ class CameraRenderer:
         win = self.world.window(*fp.min(axis=0), *fp.max(axis=0))
         M = win.texel_from_world @ cam.H_world_from_image
         size = (cam.config.width, cam.config.height)
-        rgb = cv2.warpPerspective(win.rgb, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+        rgba = cv2.warpPerspective(win.rgba, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+        rgb = np.ascontiguousarray(rgba[..., :3])
         material = cv2.warpPerspective(win.material, M, size, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
         fr = self._fade_rows
         if fr.stop > fr.start:
@@ -145,8 +146,8 @@ class CameraRenderer:
         if vehicles:
             depth = depth.copy()
             self._paint_vehicles(rgb, material, depth, vehicles)
-        road = material >= ASPHALT
-        road &= material <= ASPHALT + 1
+        road = rgba[..., 3] >= 128
+        road &= material < VEHICLE
         return Frame(rgb, material, road, depth, list(vehicles))
 
     # -------------------------------------------------------------- vehicles
@@ -245,9 +246,9 @@ def render_bev(
     corners = np.array([[0, 0, 1], [W, 0, 1], [0, H, 1], [W, H, 1]], dtype=float) @ A.T
     win = world.window(*corners[:, :2].min(axis=0), *corners[:, :2].max(axis=0), slot="bev")
     M = (win.texel_from_world @ A)[:2]
-    rgb = cv2.warpAffine(win.rgb, M, (W, H), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
-    mat = cv2.warpAffine(win.material, M, (W, H), flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP)
-    road = (mat >= ASPHALT) & (mat <= ASPHALT + 1)
+    rgba = cv2.warpAffine(win.rgba, M, (W, H), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    road = rgba[..., 3] >= 128
     Ainv = np.linalg.inv(A)
     for v in list(vehicles) + ([ego] if ego is not None else []):
         pts = np.column_stack([v.corners(), np.ones(4)]) @ Ainv.T

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from simroad.camera.lanes import lane_signed_distance, supports_vectorised
 from simroad.camera.palette import Palette, draw_palette, make_texture
 
 __all__ = [
@@ -48,10 +49,10 @@ _SCALE = 1 << _SHIFT
 
 @dataclass
 class LaneShape:
-    """A lane's rasterisable outline in world coordinates."""
+    """A lane and its rasterisable outline in world coordinates."""
 
+    lane: object  # the highway-env lane
     surface: np.ndarray  # (N, 2) polygon of the drivable lane surface
-    shoulder: np.ndarray  # (N, 2) polygon widened by the shoulder width
     markings: list[np.ndarray]  # polygons of painted lines, inside the lane
     bbox: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax incl. shoulder
 
@@ -91,7 +92,6 @@ def lane_shapes(network, shoulder_width_m: float) -> list[LaneShape]:
         s = _sample_s(lane)
         half = np.array([lane.width_at(float(si)) / 2.0 for si in s])
         surface = _band(lane, s, -half, half)
-        shoulder = _band(lane, s, -half - shoulder_width_m, half + shoulder_width_m)
         markings = []
         line_types = lane.line_types or (0, 0)
         for side, kind in enumerate(line_types):
@@ -106,9 +106,9 @@ def lane_shapes(network, shoulder_width_m: float) -> list[LaneShape]:
                 ss = np.linspace(s0, s1, n)
                 hw = np.array([lane.width_at(float(si)) / 2.0 for si in ss])
                 markings.append(_band(lane, ss, sign * hw, sign * (hw - MARKING_WIDTH_M)))
-        lo = shoulder.min(axis=0)
-        hi = shoulder.max(axis=0)
-        shapes.append(LaneShape(surface, shoulder, markings, (lo[0], lo[1], hi[0], hi[1])))
+        lo = surface.min(axis=0) - shoulder_width_m
+        hi = surface.max(axis=0) + shoulder_width_m
+        shapes.append(LaneShape(lane, surface, markings, (lo[0], lo[1], hi[0], hi[1])))
     return shapes
 
 
@@ -116,11 +116,14 @@ def lane_shapes(network, shoulder_width_m: float) -> list[LaneShape]:
 class Window:
     """A contiguous piece of the world raster.
 
-    ``rgb`` is uint8 (h, w, 3) and ``material`` uint8 (h, w); texel ``(row, col)``
-    has its centre at world ``(x0 + (col + 0.5) * texel_m, y0 + (row + 0.5) * texel_m)``.
+    ``rgba`` is uint8 (h, w, 4): RGB colour and, in the 4th channel, the signed
+    distance to the road edge encoded as ``128 + 254 * d`` (d in metres, clipped to
+    +-0.5 m), so that a bilinear warp followed by ``>= 128`` gives the road surface
+    to sub-texel precision. ``material`` is uint8 (h, w). Texel ``(row, col)`` has its
+    centre at world ``(x0 + (col + 0.5) * texel_m, y0 + (row + 0.5) * texel_m)``.
     """
 
-    rgb: np.ndarray
+    rgba: np.ndarray
     material: np.ndarray
     x0: float
     y0: float
@@ -192,7 +195,7 @@ class WorldRaster:
         return self.tile_px * self.texel_m
 
     def tile(self, i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
-        """Return (rgb, material) of tile column ``i``, row ``j`` (cached)."""
+        """Return (rgba, material) of tile column ``i``, row ``j`` (cached)."""
         key = (i, j)
         hit = self._tiles.get(key)
         if hit is not None:
@@ -208,21 +211,17 @@ class WorldRaster:
         T, t = self.tile_px, self.texel_m
         x0, y0 = i * self.tile_m, j * self.tile_m
         x1, y1 = x0 + self.tile_m, y0 + self.tile_m
-        material = np.zeros((T, T), dtype=np.uint8)
         visible = [s for s in self.shapes if s.bbox[0] <= x1 and s.bbox[2] >= x0 and s.bbox[1] <= y1 and s.bbox[3] >= y0]
-
-        def fixed(poly: np.ndarray) -> np.ndarray:
-            pts = (poly - (x0, y0)) / t - 0.5
-            return np.round(pts * _SCALE).astype(np.int32)
-
-        for code, attr in ((SHOULDER, "shoulder"), (ASPHALT, "surface")):
-            polys = [fixed(getattr(s, attr)) for s in visible]
-            if polys:
-                for poly in polys:  # one call per polygon: overlapping lanes must not XOR
-                    cv2.fillPoly(material, [poly], code, lineType=cv2.LINE_8, shift=_SHIFT)
+        sdf = self._tile_sdf(visible, x0, y0)
+        material = np.full((T, T), ROADSIDE, dtype=np.uint8)
+        material[sdf >= -self.palette.shoulder_width_m] = SHOULDER
+        road = sdf >= 0.0
+        material[road] = ASPHALT
+        paint = np.zeros((T, T), dtype=np.uint8)
         for s in visible:
             for m in s.markings:
-                cv2.fillPoly(material, [fixed(m)], MARKING, lineType=cv2.LINE_8, shift=_SHIFT)
+                cv2.fillPoly(paint, [self._fixed(m, x0, y0)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+        material[(paint > 0) & road] = MARKING
 
         ti, tj = (j * T) % _TEX_SIZE, (i * T) % _TEX_SIZE
         sl = (slice(ti, ti + T), slice(tj, tj + T))
@@ -231,7 +230,43 @@ class WorldRaster:
             sel = material == code
             if sel.any():
                 rgb[sel] = self._tex[code][sl][sel]
-        return np.clip(rgb, 0, 255).astype(np.uint8), material
+        rgba = np.empty((T, T, 4), dtype=np.uint8)
+        rgba[..., :3] = np.clip(rgb, 0, 255)
+        rgba[..., 3] = np.clip(np.rint(128.0 + 254.0 * sdf), 0, 255)
+        return rgba, material
+
+    def _fixed(self, poly: np.ndarray, x0: float, y0: float) -> np.ndarray:
+        pts = (poly - (x0, y0)) / self.texel_m - 0.5
+        return np.round(pts * _SCALE).astype(np.int32)
+
+    def _tile_sdf(self, visible: list[LaneShape], x0: float, y0: float) -> np.ndarray:
+        """Signed distance (m) to the union of lane surfaces at every texel centre."""
+        T, t = self.tile_px, self.texel_m
+        sdf = np.full((T, T), -1e3, dtype=np.float32)
+        xs = x0 + (np.arange(T) + 0.5) * t
+        ys = y0 + (np.arange(T) + 0.5) * t
+        for s in visible:
+            c0 = max(0, int((s.bbox[0] - x0) / t) - 1)
+            c1 = min(T, int(np.ceil((s.bbox[2] - x0) / t)) + 1)
+            r0 = max(0, int((s.bbox[1] - y0) / t) - 1)
+            r1 = min(T, int(np.ceil((s.bbox[3] - y0) / t)) + 1)
+            if c1 <= c0 or r1 <= r0:
+                continue
+            if supports_vectorised(s.lane):
+                X, Y = np.meshgrid(xs[c0:c1], ys[r0:r1])
+                d = lane_signed_distance(s.lane, X, Y)
+            else:  # e.g. PolyLane: distance transform of the rasterised polygon
+                d = self._polygon_sdf(s.surface, x0, y0)[r0:r1, c0:c1]
+            np.maximum(sdf[r0:r1, c0:c1], d, out=sdf[r0:r1, c0:c1])
+        return sdf
+
+    def _polygon_sdf(self, poly: np.ndarray, x0: float, y0: float) -> np.ndarray:
+        T, t = self.tile_px, self.texel_m
+        inside = np.zeros((T, T), dtype=np.uint8)
+        cv2.fillPoly(inside, [self._fixed(poly, x0, y0)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+        d_in = cv2.distanceTransform(inside, cv2.DIST_L2, 5)
+        d_out = cv2.distanceTransform(1 - inside, cv2.DIST_L2, 5)
+        return ((d_in - d_out) * t).astype(np.float32)
 
     # ---------------------------------------------------------------- window
     def window(self, xmin: float, ymin: float, xmax: float, ymax: float, *, slot: str = "camera") -> Window:
@@ -248,15 +283,15 @@ class WorldRaster:
         j0, j1 = math.floor(ymin / tm) - 1, math.floor(ymax / tm) + 1
         T = self.tile_px
         nx, ny = i1 - i0 + 1, j1 - j0 + 1
-        rgb = np.empty((ny * T, nx * T, 3), dtype=np.uint8)
+        rgba = np.empty((ny * T, nx * T, 4), dtype=np.uint8)
         material = np.empty((ny * T, nx * T), dtype=np.uint8)
         for j in range(j0, j1 + 1):
             for i in range(i0, i1 + 1):
-                trgb, tmat = self.tile(i, j)
+                trgba, tmat = self.tile(i, j)
                 r, c = (j - j0) * T, (i - i0) * T
-                rgb[r : r + T, c : c + T] = trgb
+                rgba[r : r + T, c : c + T] = trgba
                 material[r : r + T, c : c + T] = tmat
-        self._windows[slot] = Window(rgb, material, i0 * tm, j0 * tm, self.texel_m)
+        self._windows[slot] = Window(rgba, material, i0 * tm, j0 * tm, self.texel_m)
         return self._windows[slot]
 
     def bounds(self) -> tuple[float, float, float, float]:

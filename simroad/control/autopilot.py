@@ -1,0 +1,62 @@
+"""A ground-truth autopilot: pure pursuit on highway-env's own lane centre line.
+
+It reads the true road geometry, never the camera, so it is a reference driver for
+frame export and for checking the world; the perception-driven controller lives in
+:mod:`simroad.control`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["STEERING_RANGE_RAD", "lane_lookahead_point", "pure_pursuit_steering", "autopilot_action"]
+
+#: highway-env's ``ContinuousAction`` maps steering action 1.0 to pi/4 rad.
+STEERING_RANGE_RAD = math.pi / 4
+
+
+def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, wheelbase_m: float) -> float:
+    """Steering angle (rad) that drives ``pose=(x, y, heading)`` through ``target`` (x, y).
+
+    Classic pure pursuit: ``delta = atan(2 L sin(alpha) / l_d)``, with ``alpha`` the
+    bearing of the target relative to the heading and ``l_d`` its distance.
+    """
+    x, y, h = pose
+    dx, dy = target[0] - x, target[1] - y
+    ld = math.hypot(dx, dy)
+    if ld < 1e-6:
+        return 0.0
+    alpha = math.atan2(dy, dx) - h
+    alpha = math.atan2(math.sin(alpha), math.cos(alpha))
+    return math.atan2(2.0 * wheelbase_m * math.sin(alpha), ld)
+
+
+def lane_lookahead_point(road, vehicle, lookahead_m: float) -> np.ndarray:
+    """World point ``lookahead_m`` ahead along the centre of the vehicle's lane."""
+    net = road.network
+    index = net.get_closest_lane_index(vehicle.position, vehicle.heading)
+    lane = net.get_lane(index)
+    s, _ = lane.local_coordinates(vehicle.position)
+    s_target = s + lookahead_m
+    for _ in range(8):
+        if s_target <= lane.length:
+            break
+        s_target -= lane.length
+        # Scenario roads have one successor per lane; the fixed generator only breaks ties.
+        nxt = net.next_lane(index, route=None, position=vehicle.position, np_random=np.random.default_rng(0))
+        if nxt is None or nxt[:2] == index[:2]:
+            s_target = lane.length
+            break
+        index, lane = nxt, net.get_lane(nxt)
+    return np.asarray(lane.position(s_target, 0.0))
+
+
+def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m: float = 6.0) -> float:
+    """Steering action in [-1, 1] for highway-env's ``ContinuousAction``."""
+    ld = max(min_lookahead_m, lookahead_s * float(vehicle.speed))
+    target = lane_lookahead_point(road, vehicle, ld)
+    pose = (float(vehicle.position[0]), float(vehicle.position[1]), float(vehicle.heading))
+    delta = pure_pursuit_steering(pose, target, wheelbase_m=float(vehicle.LENGTH))
+    return float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))

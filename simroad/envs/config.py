@@ -1,0 +1,97 @@
+"""Typed configuration of :class:`simroad.envs.RoadCamEnv`."""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+from dataclasses import dataclass, field
+from typing import Any
+
+from simroad._validation import SimroadError, check_choice, check_in_range
+from simroad.camera.geometry import CameraConfig
+from simroad.camera.palette import ROADSIDE_KINDS
+
+__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]
+
+SCENARIO_NAMES = ("racetrack", "highway", "winding")
+_CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
+
+
+@dataclass(frozen=True)
+class RoadCamConfig:
+    """Everything that defines a ``simroad/RoadCam-v0`` environment.
+
+    Parameters
+    ----------
+    scenario : {"racetrack", "highway", "winding"}
+    camera : CameraConfig
+        Image size, field of view, mounting (see :class:`CameraConfig`).
+    noise : str
+        Weather spec: ``"clear"``, ``"rain"``, ``"snow"``, ``"shadow"``, ``"glare"``,
+        ``"fog"`` or a composition such as ``"rain+glare"``.
+    severity : float
+        Weather severity in [0, 1], mapped to physical parameters (docs/weather.md).
+    noise_params : dict, optional
+        Physical parameters per noise, overriding the severity mapping.
+    longitudinal : bool
+        If True the action is ``[steering, acceleration]``, else ``[steering]`` at
+        constant speed.
+    traffic : bool
+        Other vehicles on the road.
+    duration_s : float
+        Episode time limit in simulated seconds (truncation).
+    roadside : str, optional
+        Force the roadside material (grass, dirt, gravel, pavement); drawn per seed
+        when None.
+    max_offroad_m : float
+        The episode terminates when the ego's centre is farther than this from the
+        road surface, in metres.
+    """
+
+    scenario: str = "racetrack"
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    noise: str = "clear"
+    severity: float = 0.5
+    noise_params: dict | None = None
+    longitudinal: bool = False
+    traffic: bool = True
+    duration_s: float = 60.0
+    roadside: str | None = None
+    max_offroad_m: float = 3.0
+
+    def __post_init__(self) -> None:
+        check_choice("scenario", self.scenario, SCENARIO_NAMES)
+        if not isinstance(self.camera, CameraConfig):
+            raise SimroadError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
+        object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
+        object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, 0.2, 3600.0, unit="s"))
+        object.__setattr__(self, "max_offroad_m", check_in_range("max_offroad_m", self.max_offroad_m, 0.0, 50.0, unit="m"))
+        if self.roadside is not None:
+            check_choice("roadside", self.roadside, ROADSIDE_KINDS)
+        if not isinstance(self.noise, str):
+            raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
+        from simroad.noise import parse_noise
+
+        object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
+
+    @classmethod
+    def from_kwargs(cls, **kwargs: Any) -> RoadCamConfig:
+        """Build from flat keyword arguments; camera keys (``width``, ``pitch_deg``, ...)
+        may be given directly. Unknown keys are refused with a suggestion."""
+        own = {f.name for f in dataclasses.fields(cls)}
+        valid = sorted(own | set(_CAMERA_KEYS))
+        cam_kw, own_kw = {}, {}
+        for key, value in kwargs.items():
+            if key in _CAMERA_KEYS:
+                cam_kw[key] = value
+            elif key in own:
+                own_kw[key] = value
+            else:
+                close = difflib.get_close_matches(key, valid, n=1)
+                hint = f" Did you mean {close[0]!r}?" if close else ""
+                raise SimroadError(f"unknown RoadCam option {key!r}; valid options are {', '.join(valid)}.{hint}")
+        if cam_kw:
+            if "camera" in own_kw:
+                raise SimroadError("camera: pass either camera=CameraConfig(...) or camera keywords, not both.")
+            own_kw["camera"] = CameraConfig(**cam_kw)
+        return cls(**own_kw)

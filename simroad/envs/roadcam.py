@@ -1,0 +1,230 @@
+"""``simroad/RoadCam-v0``: a dashboard camera on highway-env, with exact ground truth."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import cv2
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from simroad._validation import SimroadError, check_choice
+from simroad.camera import CameraRenderer, PinholeCamera, VehicleBox, WorldRaster, render_bev
+from simroad.camera.palette import draw_palette
+from simroad.control.autopilot import autopilot_action
+from simroad.envs.config import RoadCamConfig
+from simroad.envs.scenarios import make_highway_env
+
+__all__ = ["RoadCamEnv"]
+
+
+class RoadCamEnv(gym.Env):
+    """A dashboard camera on a highway-env car, in clear or bad weather.
+
+    The world (road surface, markings, shoulders, roadside) is rasterised from
+    highway-env's road network once per episode and seen through a pinhole camera
+    on the ego; the weather spoils the picture; ``info`` carries the exact truth.
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: steering, 1.0 = pi/4 rad to the right. With
+    ``longitudinal=True``, ``Box(-1, 1, (2,))``: ``[steering, acceleration]``,
+    acceleration 1.0 = 5 m/s^2. NaN or infinite actions raise an error.
+
+    ## Observation Space
+    ``Box(0, 255, (height, width, 3), uint8)``: the (noisy) RGB camera frame.
+
+    ## Rewards
+    ``on_road * 1 / (1 + lateral_offset_m**2) - crashed``; the terms are in
+    ``info["rewards"]``. Drivers in simroad are scored on the mask and safety
+    metrics, not on this reward; it is there for RL users.
+
+    ## Episode End
+    Terminated when the ego crashes or its centre is more than ``max_offroad_m``
+    off the road surface; truncated after ``duration_s`` simulated seconds, or at
+    the end of the ``winding`` road.
+
+    ## Info
+    ``road_mask`` (bool HxW, visible drivable surface), ``depth`` (float32 HxW,
+    ground distance in m, inf for sky), ``material`` (uint8 HxW material codes),
+    ``noise_masks`` (dict noise -> bool HxW), ``pose`` (float64 [x, y, heading]),
+    ``speed_m_s``, ``lateral_offset_m`` (to the centre of the closest lane, + is
+    right), ``heading_error_rad``, ``lane_width_m``, ``on_road``, ``crashed``,
+    ``time_s``, ``rewards``.
+
+    ## Arguments
+    ``gymnasium.make("simroad/RoadCam-v0", scenario="winding", width=640,
+    height=360, noise="rain+glare", severity=0.7)``; see :class:`RoadCamConfig`.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 5}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        if render_mode is not None:
+            check_choice("render_mode", render_mode, self.metadata["render_modes"])
+        self.render_mode = render_mode
+        self.config = kwargs.pop("config", None) or RoadCamConfig.from_kwargs(**kwargs)
+        c = self.config
+        self.camera = PinholeCamera(c.camera)
+        self._hw = make_highway_env(c.scenario, longitudinal=c.longitudinal, traffic=c.traffic, duration_s=c.duration_s)
+        self.dt = 1.0 / float(self._hw.config["policy_frequency"])
+        H, W = c.camera.height, c.camera.width
+        self.observation_space = spaces.Box(0, 255, (H, W, 3), dtype=np.uint8)
+        n = 2 if c.longitudinal else 1
+        self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        self.world: WorldRaster | None = None
+        self.renderer: CameraRenderer | None = None
+        self.weather = None
+        self._obs: np.ndarray | None = None
+        self._info: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ API
+    @property
+    def highway_env(self):
+        """The highway-env environment that drives the world."""
+        return self._hw
+
+    @property
+    def vehicle(self):
+        """The ego vehicle (a highway-env ``Vehicle``)."""
+        return self._hw.vehicle
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        rng = self.np_random
+        self._hw.reset(seed=int(rng.integers(2**31 - 1)))
+        world_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
+        palette = draw_palette(world_rng, roadside=self.config.roadside)
+        self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)
+        self.renderer = CameraRenderer(self.camera, self.world, world_rng)
+        self._vehicle_rgb: dict[int, tuple[int, int, int]] = {}
+        self._colour_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
+        self._weather_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
+        self.weather = None
+        if self.config.noise != "clear":
+            from simroad.noise import make_weather
+
+            self.weather = make_weather(self.config.noise, self.config.severity, params=self.config.noise_params)
+            self.weather.reset(self._weather_rng, world=self.world)
+        self._prev_heading = float(self.vehicle.heading)
+        self._time = 0.0
+        return self._observe(crashed=False)
+
+    def step(self, action):
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self.action_space.shape:
+            raise SimroadError(f"action: expected shape {self.action_space.shape}, got {np.shape(action)}.")
+        if not np.all(np.isfinite(a)):
+            raise SimroadError(f"action: expected finite values in [-1, 1], got {a.tolist()}.")
+        if self.world is None:
+            raise SimroadError("step() called before reset(); call env.reset(seed=...) first.")
+        a = np.clip(a, -1.0, 1.0)
+        self._prev_heading = float(self.vehicle.heading)
+        _, _, _, hw_truncated, _ = self._hw.step(a.astype(np.float32))
+        self._time += self.dt
+        obs, info = self._observe(crashed=bool(self.vehicle.crashed))
+        terminated = bool(info["crashed"]) or info["offroad_distance_m"] > self.config.max_offroad_m
+        truncated = bool(hw_truncated) or self._time >= self.config.duration_s - 1e-9 or self._route_finished()
+        return obs, float(info["rewards"]["total"]), terminated, truncated, info
+
+    def render(self) -> np.ndarray | None:
+        """The last observation with the ground-truth road outline in yellow."""
+        if self.render_mode != "rgb_array" or self._obs is None:
+            return None
+        out = self._obs.copy()
+        contours, _ = cv2.findContours(self._info["road_mask"].astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(out, contours, -1, (255, 230, 0), 1)
+        return out
+
+    def render_bev(self, *, size: tuple[int, int] = (240, 320), metres_per_px: float = 0.25) -> np.ndarray:
+        """Bird's-eye view of the world around the ego (heading up), uint8 (H, W, 3)."""
+        if self.world is None:
+            raise SimroadError("render_bev() called before reset().")
+        ego = self._box(self.vehicle, rgb=(255, 255, 255))
+        rgb, _ = render_bev(self.world, self._pose(), size=size, metres_per_px=metres_per_px, vehicles=self._others(), ego=ego)
+        return rgb
+
+    def autopilot_action(self) -> np.ndarray:
+        """A ground-truth lane-following action (reads highway-env's lanes, not the camera)."""
+        steer = autopilot_action(self._hw.road, self.vehicle)
+        if self.config.longitudinal:
+            return np.array([steer, 0.0], dtype=np.float32)
+        return np.array([steer], dtype=np.float32)
+
+    def close(self) -> None:
+        self._hw.close()
+
+    # -------------------------------------------------------------- helpers
+    def _pose(self) -> tuple[float, float, float]:
+        v = self.vehicle
+        return float(v.position[0]), float(v.position[1]), float(v.heading)
+
+    def _box(self, v, rgb=None) -> VehicleBox:
+        if rgb is None:
+            rgb = self._vehicle_rgb.get(id(v))
+            if rgb is None:
+                rgb = tuple(int(c) for c in self._colour_rng.integers(20, 236, size=3))
+                self._vehicle_rgb[id(v)] = rgb
+        return VehicleBox(float(v.position[0]), float(v.position[1]), float(v.heading), float(v.LENGTH), float(v.WIDTH), rgb)
+
+    def _others(self) -> list[VehicleBox]:
+        ego = self.vehicle
+        return [self._box(v) for v in self._hw.road.vehicles if v is not ego]
+
+    def _lane_state(self) -> tuple[float, float, float, float]:
+        """(lateral offset, heading error, lane width, distance off the road surface)."""
+        v = self.vehicle
+        lane = self._hw.road.network.get_lane(self._hw.road.network.get_closest_lane_index(v.position, v.heading))
+        s, lat = lane.local_coordinates(v.position)
+        err = float(v.heading) - float(lane.heading_at(s))
+        err = math.atan2(math.sin(err), math.cos(err))
+        width = float(lane.width_at(s))
+        # L1 distance beyond the nearest lane's edge (0 on the road surface).
+        off = min(max(0.0, l.distance(v.position) - l.width_at(0.0) / 2) for l in self._hw.road.network.lanes_list())
+        return float(lat), err, width, float(off)
+
+    def _route_finished(self) -> bool:
+        nodes = getattr(self._hw, "route_nodes", None)
+        if not nodes:
+            return False
+        index = self.vehicle.lane_index
+        lane = self._hw.road.network.get_lane(index)
+        s, _ = lane.local_coordinates(self.vehicle.position)
+        return index[1] == nodes[-1] and s >= lane.length - 10.0
+
+    def _observe(self, *, crashed: bool):
+        frame = self.renderer.render(self._pose(), self._others())
+        rgb, masks = frame.rgb, {}
+        if self.weather is not None:
+            from simroad.noise import NoiseContext
+
+            yaw = math.atan2(math.sin(self.vehicle.heading - self._prev_heading), math.cos(self.vehicle.heading - self._prev_heading))
+            ctx = NoiseContext(
+                camera=self.camera, depth=frame.depth, material=frame.material, vehicles=frame.vehicles,
+                ego_speed=float(self.vehicle.speed), ego_yaw_rate=yaw / self.dt, dt=self.dt, time_s=self._time,
+            )
+            rgb, masks = self.weather.apply(frame.rgb, ctx)
+        lat, herr, width, off = self._lane_state()
+        on_road = off == 0.0
+        centring = 1.0 / (1.0 + lat * lat)
+        rewards = {"lane_centering": centring, "on_road": float(on_road), "collision": float(crashed)}
+        rewards["total"] = centring * float(on_road) - float(crashed)
+        info = {
+            "road_mask": frame.road_mask,
+            "depth": frame.depth,
+            "material": frame.material,
+            "noise_masks": masks,
+            "pose": np.array(self._pose()),
+            "speed_m_s": float(self.vehicle.speed),
+            "lateral_offset_m": lat,
+            "heading_error_rad": herr,
+            "lane_width_m": width,
+            "offroad_distance_m": off,
+            "on_road": on_road,
+            "crashed": crashed,
+            "time_s": self._time,
+            "rewards": rewards,
+        }
+        self._obs, self._info = rgb, info
+        return rgb, info

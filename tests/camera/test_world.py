@@ -1,0 +1,68 @@
+"""The tiled world raster: consistent tiles, periodic textures, lanes from geometry."""
+
+from __future__ import annotations
+
+import numpy as np
+from highway_env.road.lane import LineType, StraightLane
+from highway_env.road.road import RoadNetwork
+
+from simroad.camera import ASPHALT, MARKING, ROADSIDE, SHOULDER, WorldRaster
+
+
+def _straight_world(rng, line_types=(LineType.CONTINUOUS, LineType.STRIPED)):
+    net = RoadNetwork()
+    net.add_lane("a", "b", StraightLane([0, 0], [200, 0], width=4.0, line_types=line_types))
+    return WorldRaster(net, rng, texel_m=0.1)
+
+
+def test_window_equals_its_tiles_and_is_reused(rng):
+    w = _straight_world(rng)
+    win = w.window(5.0, -10.0, 60.0, 10.0)
+    T = w.tile_px
+    i0, j0 = round(win.x0 / w.tile_m), round(win.y0 / w.tile_m)
+    rgba, mat = w.tile(i0 + 1, j0 + 1)
+    np.testing.assert_array_equal(win.rgba[T : 2 * T, T : 2 * T], rgba)
+    np.testing.assert_array_equal(win.material[T : 2 * T, T : 2 * T], mat)
+    assert w.window(6.0, -9.0, 59.0, 9.0) is win  # fits: no re-assembly
+
+
+def test_lane_surface_texels_match_the_lane_width(rng):
+    w = _straight_world(rng, line_types=(LineType.NONE, LineType.NONE))
+    win = w.window(20.0, -10.0, 40.0, 10.0)
+    col = int((30.0 - win.x0) / win.texel_m)
+    road = (win.material[:, col] >= ASPHALT).sum()
+    assert road == 40  # 4.0 m / 0.1 m texels
+    assert (win.material[:, col] == SHOULDER).sum() > 0
+    assert (win.material[:, col] == ROADSIDE).sum() > 0
+
+
+def test_striped_line_is_dashed_and_continuous_line_is_not(rng):
+    w = _straight_world(rng)
+    win = w.window(10.0, -5.0, 130.0, 5.0)
+    mat = win.material
+    rows_left = int((-2.0 + 0.05 - win.y0) / win.texel_m)  # inside the left edge
+    rows_right = int((2.0 - 0.05 - win.y0) / win.texel_m)
+    c0, c1 = int((20 - win.x0) / 0.1), int((120 - win.x0) / 0.1)
+    left = mat[rows_left, c0:c1] == MARKING
+    right = mat[rows_right, c0:c1] == MARKING
+    assert left.mean() > 0.98
+    assert 0.15 < right.mean() < 0.35  # 3 m dash every 12 m
+
+
+def test_same_seed_same_world_and_tiles_do_not_depend_on_visit_order():
+    a = _straight_world(np.random.default_rng(5))
+    b = _straight_world(np.random.default_rng(5))
+    a.tile(0, 0), a.tile(3, 0)
+    b.tile(3, 0), b.tile(0, 0)
+    for key in ((0, 0), (3, 0)):
+        np.testing.assert_array_equal(a.tile(*key)[0], b.tile(*key)[0])
+
+
+def test_texture_wraps_seamlessly_between_tiles(rng):
+    w = _straight_world(rng)
+    win = w.window(-60.0, 20.0, 60.0, 40.0)  # roadside only, across tile seams
+    g = win.rgba.astype(float).mean(axis=2)
+    T = w.tile_px
+    seam = np.abs(g[:, T] - g[:, T - 1]).mean()
+    inside = np.abs(g[:, T // 2] - g[:, T // 2 - 1]).mean()
+    assert seam < 1.5 * inside + 1.0
