@@ -112,6 +112,13 @@ class CameraRenderer:
         self._haze = haze.astype(np.float32)
         self._sky_rgb = np.clip(sky, 0, 255).astype(np.uint8)
         self._sky = ~camera.ground_valid
+        # Rows [0, r0) are all sky; rows [r0, r1) mix sky and ground; below r1 all ground.
+        rows_any = np.nonzero(camera.ground_valid.any(axis=1))[0]
+        rows_all = np.nonzero(camera.ground_valid.all(axis=1))[0]
+        self._r0 = int(rows_any[0]) if len(rows_any) else c.height
+        self._r1 = int(rows_all[0]) if len(rows_all) else c.height
+        self._mixed_sky = self._sky[self._r0 : self._r1]
+        self._shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(self._r0)], [0.0, 0.0, 1.0]])
         # Footprint of the visible ground in the ego frame, for the window request.
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
@@ -130,24 +137,36 @@ class CameraRenderer:
         cam.set_pose(*pose)
         fp = self.footprint_world()
         win = self.world.window(*fp.min(axis=0), *fp.max(axis=0))
-        M = win.texel_from_world @ cam.H_world_from_image
-        size = (cam.config.width, cam.config.height)
-        rgba = cv2.warpPerspective(win.rgba, M, size, flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        rgb = np.ascontiguousarray(rgba[..., :3])
-        material = cv2.warpPerspective(win.material, M, size, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        fr = self._fade_rows
-        if fr.stop > fr.start:
-            band = rgb[fr].astype(np.float32)
-            band += self._fade_alpha * (self._haze - band)
-            rgb[fr] = band.astype(np.uint8)
-        rgb[self._sky] = self._sky_rgb[self._sky]
-        material[self._sky] = SKY
+        c = cam.config
+        rgb = self._sky_rgb.copy()
+        material = np.full((c.height, c.width), SKY, dtype=np.uint8)
+        road = np.zeros((c.height, c.width), dtype=bool)
+        r0, r1 = self._r0, self._r1
+        if r0 < c.height:
+            # Warp only the rows that can see ground (destination offset by r0).
+            M = win.texel_from_world @ cam.H_world_from_image @ self._shift
+            size = (c.width, c.height - r0)
+            flags = cv2.WARP_INVERSE_MAP
+            rgba = cv2.warpPerspective(win.rgba, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE)
+            cv2.warpPerspective(win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE)
+            ground = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
+            np.greater_equal(rgba[..., 3], 128, out=road[r0:])
+            fr = self._fade_rows
+            if fr.stop > fr.start:
+                band = ground[fr.start - r0 : fr.stop - r0].astype(np.float32)
+                band += self._fade_alpha * (self._haze - band)
+                ground[fr.start - r0 : fr.stop - r0] = band.astype(np.uint8)
+            rgb[r0:] = ground
+            if r1 > r0:  # restore the sky where mixed rows look beyond the range
+                mixed = self._mixed_sky
+                np.copyto(rgb[r0:r1], self._sky_rgb[r0:r1], where=mixed[..., None])
+                material[r0:r1][mixed] = SKY
+                road[r0:r1][mixed] = False
         depth = cam.depth
         if vehicles:
             depth = depth.copy()
             self._paint_vehicles(rgb, material, depth, vehicles)
-        road = rgba[..., 3] >= 128
-        road &= material < VEHICLE
+            road &= material != VEHICLE
         return Frame(rgb, material, road, depth, list(vehicles))
 
     # -------------------------------------------------------------- vehicles

@@ -121,7 +121,8 @@ class RoadCamEnv(gym.Env):
             raise SimroadError("step() called before reset(); call env.reset(seed=...) first.")
         a = np.clip(a, -1.0, 1.0)
         self._prev_heading = float(self.vehicle.heading)
-        _, _, _, hw_truncated, _ = self._hw.step(a.astype(np.float32))
+        hw_action = a[::-1] if self.config.longitudinal else a  # highway-env: [acceleration, steering]
+        _, _, _, hw_truncated, _ = self._hw.step(hw_action.astype(np.float32))
         self._time += self.dt
         obs, info = self._observe(crashed=bool(self.vehicle.crashed))
         terminated = bool(info["crashed"]) or info["offroad_distance_m"] > self.config.max_offroad_m
