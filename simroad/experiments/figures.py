@@ -38,6 +38,6 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
             ax.axis("off")
         env.close()
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    fig.savefig(out, dpi=80)
     plt.close(fig)
     return out
