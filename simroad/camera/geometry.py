@@ -221,6 +221,15 @@ class PinholeCamera:
         hom = pts_cam @ self.K.T
         return hom[:, :2] / hom[:, 2:3]
 
+    @property
+    def ego_ground(self) -> np.ndarray:
+        """Ego-frame ground point ``(X forward, Y right)`` in metres of every pixel,
+        shape (H, W, 2), measured from the vehicle's centre; NaN where the pixel sees
+        no ground within range. Constant: the camera is fixed to the ego."""
+        out = self._ego_ground.copy()
+        out[~self.ground_valid] = np.nan
+        return out
+
     def ground_points_world(self) -> np.ndarray:
         """World ``(x, y)`` of every pixel's ground point, shape (H, W, 2); NaN off-ground."""
         g = self._ego_ground

@@ -57,6 +57,8 @@ def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m
     """Steering action in [-1, 1] for highway-env's ``ContinuousAction``."""
     ld = max(min_lookahead_m, lookahead_s * float(vehicle.speed))
     target = lane_lookahead_point(road, vehicle, ld)
-    pose = (float(vehicle.position[0]), float(vehicle.position[1]), float(vehicle.heading))
-    delta = pure_pursuit_steering(pose, target, wheelbase_m=float(vehicle.LENGTH))
+    # Rear axle: the point of highway-env's kinematic bicycle that moves along the heading.
+    h = float(vehicle.heading)
+    rear = np.asarray(vehicle.position, dtype=float) - 0.5 * float(vehicle.LENGTH) * np.array([math.cos(h), math.sin(h)])
+    delta = pure_pursuit_steering((float(rear[0]), float(rear[1]), h), target, wheelbase_m=float(vehicle.LENGTH))
     return float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))

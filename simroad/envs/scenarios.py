@@ -22,6 +22,10 @@ from simroad.envs.winding import WindingRoadEnv
 __all__ = ["SCENARIOS", "make_highway_env"]
 
 
+#: Every scenario simulates at 15 Hz and takes a camera frame and an action at 5 Hz.
+_TIMING = {"simulation_frequency": 15, "policy_frequency": 5}
+
+
 def _action(longitudinal: bool) -> dict:
     return {
         "type": "ContinuousAction",
@@ -40,6 +44,7 @@ def _racetrack(longitudinal: bool, traffic: bool, duration_s: float) -> Abstract
             "terminate_off_road": False,
             "duration": duration_s,
             "offscreen_rendering": True,
+            **_TIMING,
         }
     )
 
@@ -54,6 +59,7 @@ def _highway(longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEn
             "duration": duration_s,
             "offroad_terminal": False,
             "offscreen_rendering": True,
+            **_TIMING,
         }
     )
 
@@ -66,6 +72,7 @@ def _winding(longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEn
             "oncoming_vehicles": 3 if traffic else 0,
             "duration": duration_s,
             "offscreen_rendering": True,
+            **_TIMING,
         }
     )
 

@@ -1,0 +1,295 @@
+"""Lane keeping driven by a road mask alone.
+
+The camera is fixed to the car and the ground is flat, so every image row below the
+horizon is a line of constant forward distance on the ground: inverse perspective
+mapping of the mask is a per-row lookup of the camera's constant ego-frame ground map.
+
+Per look-ahead row the controller finds the road run the car is on, its right (and
+left) edge in metres, and the centre of the ego's lane (offset from the right edge by
+lane widths; the road centre when no edge is seen). A quadratic fitted through those
+centres is the path; pure pursuit steers onto it, and the speed is held at a target
+and lowered when the detected free road ahead is short.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simroad._validation import SimroadError, check_in_range, check_mask
+from simroad.camera.geometry import PinholeCamera
+from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
+
+__all__ = ["ControllerConfig", "MaskLaneKeeper", "PathEstimate"]
+
+#: highway-env's ContinuousAction maps acceleration action 1.0 to 5 m/s^2.
+ACCEL_RANGE_M_S2 = 5.0
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Parameters of :class:`MaskLaneKeeper` (lengths in m, speeds in m/s).
+
+    Parameters
+    ----------
+    lane_width_m : float
+        Nominal lane width used to offset the path from the right road edge.
+    lookaheads_m : tuple of float
+        Forward distances (from the car's centre) at which road edges are measured.
+    lookahead_time_s, min_lookahead_m, max_lookahead_m : float
+        Pure-pursuit look-ahead ``clip(lookahead_time_s * speed, min, max)``.
+    target_speed_m_s : float
+        Cruise speed.
+    max_decel_m_s2 : float
+        Braking used to slow down for short free road ahead.
+    stop_margin_m : float
+        Free road kept in reserve when computing the safe speed.
+    free_road_max_m : float
+        Farthest distance checked for free road ahead (beyond the path look-aheads).
+    max_lateral_accel_m_s2 : float
+        Curve speed limit ``sqrt(a / curvature)`` from the fitted path.
+    wheelbase_m : float
+        Effective wheelbase of highway-env's bicycle model (its vehicle length).
+    """
+
+    lane_width_m: float = 3.5
+    lookaheads_m: tuple[float, ...] = (7.0, 9.0, 11.0, 13.0, 15.0, 18.0, 21.0, 25.0, 30.0, 36.0)
+    lookahead_time_s: float = 0.9
+    min_lookahead_m: float = 6.0
+    max_lookahead_m: float = 25.0
+    target_speed_m_s: float = 10.0
+    max_decel_m_s2: float = 4.0
+    stop_margin_m: float = 6.0
+    free_road_max_m: float = 90.0
+    max_lateral_accel_m_s2: float = 3.0
+    wheelbase_m: float = 5.0
+
+    def __post_init__(self) -> None:
+        check_in_range("lane_width_m", self.lane_width_m, 1.0, 10.0, unit="m")
+        check_in_range("target_speed_m_s", self.target_speed_m_s, 0.0, 60.0, unit="m/s")
+        check_in_range("max_decel_m_s2", self.max_decel_m_s2, 0.1, 15.0, unit="m/s^2")
+        if len(self.lookaheads_m) < 2 or any(d <= 0 for d in self.lookaheads_m):
+            raise SimroadError(f"lookaheads_m: expected two or more positive distances, got {self.lookaheads_m!r}.")
+
+
+@dataclass
+class PathEstimate:
+    """What the controller read off one mask (ego frame: X forward, Y right, metres)."""
+
+    x_m: np.ndarray  # look-ahead distances with a measurement
+    centre_y_m: np.ndarray  # ego-lane centre at those distances
+    right_y_m: np.ndarray  # right road edge (NaN where not seen)
+    left_y_m: np.ndarray  # left road edge (NaN where not seen)
+    free_road_m: float  # farthest look-ahead still on the detected road
+    coeffs: np.ndarray = field(default_factory=lambda: np.zeros(3))  # path Y(X), highest power first
+
+
+class MaskLaneKeeper:
+    """Steer and hold speed from a bool road mask.
+
+    Parameters
+    ----------
+    camera : PinholeCamera
+        The calibrated camera that produced the masks (its mounting only).
+    config : ControllerConfig
+    """
+
+    def __init__(self, camera: PinholeCamera, config: ControllerConfig | None = None) -> None:
+        self.camera = camera
+        self.config = config or ControllerConfig()
+        ground = camera.ego_ground
+        H = camera.config.height
+        centre_col = camera.config.width // 2
+        x_col = ground[:, centre_col, 0]
+        self._rows, self._x = [], []
+        for d in self.config.lookaheads_m:
+            ok = np.nonzero(np.isfinite(x_col))[0]
+            if len(ok) == 0:
+                break
+            r = int(ok[np.argmin(np.abs(x_col[ok] - d))])
+            if abs(x_col[r] - d) < 0.25 * d and r not in self._rows and r < H:
+                self._rows.append(r)
+                self._x.append(float(x_col[r]))
+        if len(self._rows) < 2:
+            raise SimroadError("camera: too few image rows see the look-ahead distances; lower the pitch or the look-aheads.")
+        self._rows = np.asarray(self._rows)
+        self._x = np.asarray(self._x)
+        self._row_y = ground[self._rows, :, 1]  # (n_rows, W) lateral position of each column
+        # Rows beyond the path look-aheads, every ~5 m, only to measure free road.
+        self._free_rows, self._free_x = [], []
+        for d in np.arange(self._x[-1] + 5.0, self.config.free_road_max_m + 1e-6, 5.0):
+            ok = np.nonzero(np.isfinite(x_col))[0]
+            r = int(ok[np.argmin(np.abs(x_col[ok] - d))])
+            if abs(x_col[r] - d) < 0.25 * d and r not in self._free_rows and r < int(self._rows[-1]):
+                self._free_rows.append(r)
+                self._free_x.append(float(x_col[r]))
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the lane index and the previous path (call at episode start)."""
+        self.lane_from_right: int | None = None
+        self.lanes: int | None = None
+        self._prev_coeffs: np.ndarray | None = None
+        self.last: PathEstimate | None = None
+
+    # --------------------------------------------------------------- perception
+    def read_path(self, mask: np.ndarray) -> PathEstimate:
+        """Measure road edges on the look-ahead rows and the ego-lane centre line."""
+        mask = check_mask("mask", mask, shape=(self.camera.config.height, self.camera.config.width))
+        W = mask.shape[1]
+        xs, rights, lefts = [], [], []
+        free = 0.0
+        for k, r in enumerate(self._rows):
+            yrow = self._row_y[k]
+            expect = 0.0 if self._prev_coeffs is None else float(np.polyval(self._prev_coeffs, self._x[k]))
+            run = _pick_run(mask[r], yrow, expect)
+            if run is None:
+                break  # the road ends (or is lost) here: nothing farther counts
+            a, b = run
+            free = self._x[k]
+            xs.append(self._x[k])
+            rights.append(float(yrow[b]) if b < W - 1 else math.nan)
+            lefts.append(float(yrow[a]) if a > 0 else math.nan)
+        x, right, left = np.asarray(xs), np.asarray(rights), np.asarray(lefts)
+        cx, cy = self._centre_points(x, right, left)
+        if free >= self._x[-1]:
+            free = self._free_beyond(mask, list(cx), list(cy), free)
+        est = PathEstimate(cx, cy, right, left, float(free))
+        est.coeffs = self._fit(est)
+        return est
+
+    def _centre_points(self, x: np.ndarray, right: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ego-lane centre points, offset from each seen edge along the edge's normal.
+
+        A row is a line of constant forward distance, which crosses a curving road
+        obliquely; offsetting along the row would shrink every curve.
+        """
+        w = self.config.lane_width_m
+        sr, sl = _edge_slopes(x, right), _edge_slopes(x, left)
+        both = np.isfinite(right) & np.isfinite(left)
+        if self.lanes is None and both.any():
+            slope = np.where(np.isfinite(sr), sr, 0.0)[both]
+            width = np.median((right[both] - left[both]) / np.sqrt(1.0 + slope**2))
+            self.lanes = max(1, int(round(width / w)))
+        if self.lane_from_right is None:
+            if np.isfinite(right).any():
+                i = int(np.argmax(np.isfinite(right)))
+                self.lane_from_right = max(0, int(math.floor(right[i] / math.sqrt(1.0 + sr[i] ** 2) / w)))
+            elif np.isfinite(left).any() and self.lanes is not None:
+                i = int(np.argmax(np.isfinite(left)))
+                from_left = int(math.floor(-left[i] / math.sqrt(1.0 + sl[i] ** 2) / w))
+                self.lane_from_right = max(0, self.lanes - 1 - from_left)
+        k, n = self.lane_from_right, self.lanes
+        pts = []
+        if k is not None:
+            d = w / 2 + k * w
+            for xi, yi, si in zip(x, right, sr):
+                if math.isfinite(yi):
+                    norm = math.sqrt(1.0 + si * si)
+                    pts.append((xi + d * si / norm, yi - d / norm))  # left normal (s, -1)
+        if k is not None and n is not None and k < n:
+            d = w / 2 + (n - 1 - k) * w
+            for xi, yi, si in zip(x, left, sl):
+                if math.isfinite(yi):
+                    norm = math.sqrt(1.0 + si * si)
+                    pts.append((xi - d * si / norm, yi + d / norm))  # right normal (-s, 1)
+        if not pts:  # no usable edge model: the road centre where both edges are seen
+            pts = [(xi, 0.5 * (ri + li)) for xi, ri, li in zip(x, right, left) if math.isfinite(ri) and math.isfinite(li)]
+        if not pts:
+            return np.zeros(0), np.zeros(0)
+        arr = np.asarray(sorted(pts))
+        return arr[:, 0], arr[:, 1]
+
+    def _free_beyond(self, mask: np.ndarray, xs: list, centres: list, free: float) -> float:
+        """Extend the free road past the path rows while the road continues."""
+        ground_y = self.camera.ego_ground
+        expect = centres[-1] if centres else 0.0
+        for r, x in zip(self._free_rows, self._free_x):
+            yrow = ground_y[r, :, 1]
+            if len(xs) >= 2:
+                slope = (centres[-1] - centres[0]) / max(xs[-1] - xs[0], 1e-6)
+                expect = centres[-1] + slope * (x - xs[-1])
+            if _pick_run(mask[r], np.nan_to_num(yrow, nan=1e6), expect) is None:
+                break
+            free = x
+        return free
+
+    def _fit(self, est: PathEstimate) -> np.ndarray:
+        if len(est.x_m) >= 4:
+            c = np.polyfit(est.x_m, est.centre_y_m, 2)
+        elif len(est.x_m) >= 2:
+            c = np.concatenate([[0.0], np.polyfit(est.x_m, est.centre_y_m, 1)])
+        elif len(est.x_m) == 1:
+            c = np.array([0.0, 0.0, est.centre_y_m[0]])
+        elif self._prev_coeffs is not None:
+            c = self._prev_coeffs
+        else:
+            c = np.zeros(3)
+        return c
+
+    # ------------------------------------------------------------------ control
+    def act(self, mask: np.ndarray, speed_m_s: float) -> np.ndarray:
+        """Return ``[steering, acceleration]`` actions in [-1, 1] for highway-env."""
+        est = self.read_path(mask)
+        self.last = est
+        self._prev_coeffs = est.coeffs
+        c = self.config
+        ld = float(np.clip(c.lookahead_time_s * speed_m_s, c.min_lookahead_m, c.max_lookahead_m))
+        if len(est.x_m):  # stay on the measured part of the path: never extrapolate
+            ld = float(np.clip(ld, est.x_m.min(), est.x_m.max()))
+        target = np.array([ld, float(np.polyval(est.coeffs, ld))])
+        # Pure pursuit from the rear axle: in highway-env's kinematic bicycle (centre of
+        # gravity midway, sideslip beta) only the rear axle moves along the heading.
+        delta = pure_pursuit_steering((-c.wheelbase_m / 2.0, 0.0, 0.0), target, c.wheelbase_m)
+        steer = float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))
+        safe = math.sqrt(2.0 * c.max_decel_m_s2 * max(0.0, est.free_road_m - c.stop_margin_m))
+        kappa = abs(2.0 * est.coeffs[0]) / (1.0 + est.coeffs[1] ** 2) ** 1.5
+        curve = math.sqrt(c.max_lateral_accel_m_s2 / kappa) if kappa > 1e-6 else math.inf
+        v_des = min(c.target_speed_m_s, safe, curve)
+        accel = float(np.clip(1.5 * (v_des - speed_m_s), -c.max_decel_m_s2, 3.0)) / ACCEL_RANGE_M_S2
+        return np.array([steer, accel], dtype=np.float32)
+
+
+def _edge_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """dY/dX of an edge seen at forward distances ``x`` (NaN where unseen), from a
+    quadratic (>= 4 points) or line (2-3 points) fit; 0 with fewer points."""
+    ok = np.isfinite(y)
+    out = np.full(len(x), np.nan)
+    if ok.sum() >= 4:
+        c = np.polyfit(x[ok], y[ok], 2)
+        out[ok] = 2 * c[0] * x[ok] + c[1]
+    elif ok.sum() >= 2:
+        out[ok] = np.polyfit(x[ok], y[ok], 1)[0]
+    else:
+        out[ok] = 0.0
+    return out
+
+
+def _pick_run(row: np.ndarray, y: np.ndarray, expect_y: float, max_gap_m: float = 0.6) -> tuple[int, int] | None:
+    """The run of True pixels in ``row`` that contains lateral ``expect_y`` (else the
+    nearest within 3 m); returns (first, last) column indices or None."""
+    padded = np.concatenate([[False], row, [False]]).astype(np.int8)
+    d = np.diff(padded)
+    starts = np.nonzero(d == 1)[0]
+    ends = np.nonzero(d == -1)[0] - 1
+    if len(starts) == 0:
+        return None
+    # Bridge gaps narrower than max_gap_m on the ground (a misread lane marking, a
+    # sliver between two lanes): they do not split the road.
+    if len(starts) > 1:
+        gap = y[starts[1:]] - y[ends[:-1]]
+        keep = np.concatenate([[True], gap > max_gap_m])
+        starts = starts[keep]
+        ends = np.concatenate([ends[:-1][keep[1:]], ends[-1:]])
+    ya, yb = y[starts], y[ends]
+    inside = (ya <= expect_y) & (expect_y <= yb)
+    if inside.any():
+        k = int(np.argmax(inside))
+    else:
+        gap = np.minimum(np.abs(ya - expect_y), np.abs(yb - expect_y))
+        k = int(np.argmin(gap))
+        if gap[k] > 3.0:
+            return None
+    return int(starts[k]), int(ends[k])
