@@ -217,17 +217,16 @@ class MaskLaneKeeper:
         return free
 
     def _fit(self, est: PathEstimate) -> np.ndarray:
-        if len(est.x_m) >= 4:
-            c = np.polyfit(est.x_m, est.centre_y_m, 2)
-        elif len(est.x_m) >= 2:
-            c = np.concatenate([[0.0], np.polyfit(est.x_m, est.centre_y_m, 1)])
-        elif len(est.x_m) == 1:
-            c = np.array([0.0, 0.0, est.centre_y_m[0]])
-        elif self._prev_coeffs is not None:
-            c = self._prev_coeffs
-        else:
-            c = np.zeros(3)
-        return c
+        """Path Y(X) as quadratic coefficients (highest power first)."""
+        x, y = est.x_m, est.centre_y_m
+        span = float(np.ptp(x)) if len(x) else 0.0
+        if len(x) >= 4 and span >= 4.0:
+            return np.polyfit(x, y, 2)
+        if len(x) >= 2 and span >= 1.0:
+            return np.concatenate([[0.0], np.polyfit(x, y, 1)])
+        if len(x):
+            return np.array([0.0, 0.0, float(np.mean(y))])
+        return self._prev_coeffs if self._prev_coeffs is not None else np.zeros(3)
 
     # ------------------------------------------------------------------ control
     def act(self, mask: np.ndarray, speed_m_s: float) -> np.ndarray:

@@ -1,0 +1,165 @@
+"""Driving-safety metrics, computed from highway-env's state (never from a mask).
+
+Definitions
+-----------
+collision
+    The ego crashed (highway-env's ``vehicle.crashed``) at any step.
+off-road
+    Any corner of the ego's footprint lies off the road surface (the union of all
+    lanes, as in the ground-truth mask). Counted in steps and as a fraction of steps;
+    ``offroad_events`` counts entries.
+lane departure
+    An event where a footprint corner leaves the lane the ego's centre is in
+    (``|lateral| > width / 2``), counted on entry.
+lateral error
+    Distance of the ego's centre to the centre of its closest lane: RMS and max (m).
+heading error
+    Ego heading minus lane heading, RMS in degrees.
+distance, route completion
+    ``distance_m`` is the odometer; progress along the road is the odometer weighted
+    by the cosine of the heading error; ``route_completion`` is progress divided by
+    the route length, capped at 1.
+time-to-collision
+    For vehicles ahead within the ego's lane corridor and closing, gap / closing
+    speed; ``min_ttc_s`` is the minimum over the episode (inf if never closing).
+driving score
+    In the spirit of the CARLA leaderboard: ``route_completion x product of
+    penalties``, with one factor per infraction: vehicle collision 0.60, off-road
+    event 0.65 (CARLA's collision-with-layout factor), lane departure 0.95.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from simroad.camera.lanes import lane_signed_distance, supports_vectorised
+
+__all__ = ["PENALTIES", "SafetyScore", "footprint_corners"]
+
+#: Multiplicative penalty per infraction in the driving score.
+PENALTIES = {"collision": 0.60, "offroad": 0.65, "lane_departure": 0.95}
+
+
+def footprint_corners(vehicle) -> np.ndarray:
+    """World (x, y) of the 4 corners of a highway-env vehicle's footprint, (4, 2)."""
+    h = float(vehicle.heading)
+    fwd = np.array([math.cos(h), math.sin(h)])
+    right = np.array([-math.sin(h), math.cos(h)])
+    hl, hw = vehicle.LENGTH / 2.0, vehicle.WIDTH / 2.0
+    c = np.asarray(vehicle.position, dtype=float)
+    return np.array([c + hl * fwd - hw * right, c + hl * fwd + hw * right, c - hl * fwd + hw * right, c - hl * fwd - hw * right])
+
+
+def _on_road(network, pts: np.ndarray) -> np.ndarray:
+    """Which points lie on the road surface (the union of all lanes)."""
+    best = np.full(len(pts), -np.inf)
+    for lane in network.lanes_list():
+        if supports_vectorised(lane):
+            d = lane_signed_distance(lane, pts[:, 0], pts[:, 1])
+        else:
+            d = np.array([0.0 if lane.on_lane(p) else -1.0 for p in pts])
+        best = np.maximum(best, d)
+    return best >= 0.0
+
+
+@dataclass
+class SafetyScore:
+    """Accumulates safety metrics over an episode; call :meth:`update` every step.
+
+    Parameters
+    ----------
+    dt : float
+        Seconds per step.
+    route_length_m : float
+        Length of the route the driver is asked to cover.
+    """
+
+    dt: float
+    route_length_m: float
+    steps: int = 0
+    collided: bool = False
+    collisions: int = 0
+    offroad_steps: int = 0
+    offroad_events: int = 0
+    lane_departures: int = 0
+    distance_m: float = 0.0
+    progress_m: float = 0.0
+    min_ttc_s: float = math.inf
+    _lat: list[float] = field(default_factory=list)
+    _head: list[float] = field(default_factory=list)
+    _was_off: bool = False
+    _was_departed: bool = False
+    _was_crashed: bool = False
+
+    def update(self, road, vehicle, info: dict) -> None:
+        """Record one step from the highway-env ``road`` and ego ``vehicle``."""
+        self.steps += 1
+        crashed = bool(vehicle.crashed)
+        if crashed and not self._was_crashed:
+            self.collisions += 1
+        self.collided |= crashed
+        self._was_crashed = crashed
+        corners = footprint_corners(vehicle)
+        off = not bool(_on_road(road.network, corners).all())
+        self.offroad_steps += int(off)
+        self.offroad_events += int(off and not self._was_off)
+        self._was_off = off
+        lane = road.network.get_lane(road.network.get_closest_lane_index(vehicle.position, vehicle.heading))
+        half = lane.width_at(0.0) / 2.0
+        departed = any(abs(lane.local_coordinates(c)[1]) > half for c in corners)
+        self.lane_departures += int(departed and not self._was_departed)
+        self._was_departed = departed
+        self._lat.append(float(info["lateral_offset_m"]))
+        herr = float(info["heading_error_rad"])
+        self._head.append(herr)
+        step = float(vehicle.speed) * self.dt
+        self.distance_m += step
+        self.progress_m += step * math.cos(herr)
+        self.min_ttc_s = min(self.min_ttc_s, _min_ttc(road, vehicle, half))
+
+    def result(self) -> dict[str, float | int | bool]:
+        """The metrics as a flat dict (keys of the episode record)."""
+        lat = np.asarray(self._lat) if self._lat else np.zeros(1)
+        head = np.degrees(np.asarray(self._head)) if self._head else np.zeros(1)
+        completion = min(1.0, max(0.0, self.progress_m) / self.route_length_m) if self.route_length_m > 0 else 0.0
+        score = completion
+        score *= PENALTIES["collision"] ** self.collisions
+        score *= PENALTIES["offroad"] ** self.offroad_events
+        score *= PENALTIES["lane_departure"] ** self.lane_departures
+        return {
+            "collided": self.collided,
+            "offroad_steps": self.offroad_steps,
+            "offroad_fraction": self.offroad_steps / max(1, self.steps),
+            "lane_departures": self.lane_departures,
+            "lateral_rmse_m": float(np.sqrt(np.mean(lat**2))),
+            "lateral_max_m": float(np.max(np.abs(lat))),
+            "heading_rmse_deg": float(np.sqrt(np.mean(head**2))),
+            "distance_m": self.distance_m,
+            "route_completion": completion,
+            "min_ttc_s": self.min_ttc_s,
+            "driving_score": score,
+        }
+
+
+def _min_ttc(road, ego, half_width: float) -> float:
+    h = float(ego.heading)
+    fwd = np.array([math.cos(h), math.sin(h)])
+    right = np.array([-math.sin(h), math.cos(h)])
+    v_ego = float(ego.speed) * fwd
+    best = math.inf
+    for other in road.vehicles:
+        if other is ego:
+            continue
+        d = np.asarray(other.position) - np.asarray(ego.position)
+        ahead, lateral = float(d @ fwd), float(d @ right)
+        if ahead <= 0 or abs(lateral) > half_width + (ego.WIDTH + other.WIDTH) / 2 - 0.5:
+            continue
+        gap = ahead - (ego.LENGTH + other.LENGTH) / 2
+        v_other = float(other.speed) * np.array([math.cos(other.heading), math.sin(other.heading)])
+        closing = float((v_ego - v_other) @ fwd)
+        if closing > 1e-6:
+            best = min(best, max(gap, 0.0) / closing)
+    return best

@@ -1,0 +1,83 @@
+"""Mask-driven lane keeping: run picking, path reading against the true lane, and
+closed-loop driving on the real highway-env with the ground-truth mask."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simroad import SimroadError
+from simroad.control.drivers import SCENARIO_CONTROL, make_driver
+from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _pick_run
+from simroad.envs import RoadCamEnv
+
+
+def test_pick_run_contains_expected_position_and_bridges_slivers():
+    y = np.linspace(-10, 10, 201)  # 0.1 m per column
+    row = (np.abs(y) < 6) & ~((y > 1.95) & (y < 2.25))  # a 0.3 m sliver at y = 2.1
+    row |= (y > 8.0)  # another road far right
+    a, b = _pick_run(row, y, expect_y=0.0)
+    assert y[a] == pytest.approx(-5.9) and y[b] == pytest.approx(5.9)  # sliver bridged
+    assert _pick_run(row, y, expect_y=9.0)[0] == int(np.argmax(y > 8.0))
+    assert _pick_run(np.zeros(201, bool), y, 0.0) is None
+
+
+def test_read_path_matches_the_true_lane_centre_on_a_curve():
+    env = RoadCamEnv(scenario="winding", longitudinal=True, traffic=False)
+    obs, info = env.reset(seed=4)
+    for _ in range(25):
+        obs, _, _, _, info = env.step(np.array([env.autopilot_action()[0], 0.0], dtype=np.float32))
+    ctl = MaskLaneKeeper(env.camera, ControllerConfig(**SCENARIO_CONTROL["winding"]))
+    est = ctl.read_path(info["road_mask"])
+    assert len(est.x_m) >= 5
+    v = env.vehicle
+    h = float(v.heading)
+    net = env.highway_env.road.network
+    errs = []
+    for x, y in zip(est.x_m, est.centre_y_m):
+        world = np.asarray(v.position) + x * np.array([math.cos(h), math.sin(h)]) + y * np.array([-math.sin(h), math.cos(h)])
+        lane = net.get_lane(net.get_closest_lane_index(world, h))
+        errs.append(abs(lane.local_coordinates(world)[1]))
+    assert np.median(errs) < 0.15 and max(errs) < 0.5
+
+
+@pytest.mark.parametrize("scenario, seed, steps", [("winding", 1, 150), ("highway", 0, 60)])
+def test_oracle_keeps_its_lane(scenario, seed, steps):
+    env = RoadCamEnv(scenario=scenario, longitudinal=True, traffic=False)
+    obs, info = env.reset(seed=seed)
+    driver = make_driver("oracle", env)
+    lats = []
+    for _ in range(steps):
+        obs, _, terminated, _, info = env.step(driver(obs, info))
+        lats.append(info["lateral_offset_m"])
+        assert info["offroad_distance_m"] == 0.0 and not terminated
+    assert math.sqrt(np.mean(np.square(lats))) < 0.3
+    assert info["speed_m_s"] > 0.8 * SCENARIO_CONTROL[scenario]["target_speed_m_s"]
+
+
+def test_controller_slows_down_when_the_road_ends():
+    env = RoadCamEnv(scenario="highway", longitudinal=True, traffic=False)
+    env.reset(seed=0)
+    ctl = MaskLaneKeeper(env.camera, ControllerConfig(lane_width_m=4.0, target_speed_m_s=25.0))
+    full = np.zeros((180, 320), bool)
+    full[env.camera.ground_valid] = True
+    short = full & (env.camera.depth < 15.0)
+    assert ctl.act(full, 25.0)[1] >= 0.0
+    ctl.reset()
+    assert ctl.act(short, 25.0)[1] < -0.5
+
+
+def test_bad_inputs():
+    env = RoadCamEnv(scenario="racetrack", longitudinal=True)
+    env.reset(seed=0)
+    ctl = MaskLaneKeeper(env.camera)
+    with pytest.raises(SimroadError, match="mask"):
+        ctl.act(np.zeros((10, 10), bool), 5.0)
+    with pytest.raises(SimroadError, match="driver"):
+        make_driver("pilot", env)
+    with pytest.raises(SimroadError, match="longitudinal"):
+        make_driver("oracle", RoadCamEnv(scenario="racetrack"))
+    with pytest.raises(SimroadError, match="lane_width_m"):
+        ControllerConfig(lane_width_m=-1)
