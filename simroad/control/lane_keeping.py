@@ -55,7 +55,7 @@ class ControllerConfig:
     """
 
     lane_width_m: float = 3.5
-    lookaheads_m: tuple[float, ...] = (7.0, 9.0, 11.0, 13.0, 15.0, 18.0, 21.0, 25.0, 30.0, 36.0)
+    lookaheads_m: tuple[float, ...] = (5.0, 6.0, 7.0, 9.0, 11.0, 13.0, 15.0, 18.0, 21.0, 25.0, 30.0, 36.0)
     lookahead_time_s: float = 0.9
     min_lookahead_m: float = 6.0
     max_lookahead_m: float = 25.0
@@ -63,7 +63,7 @@ class ControllerConfig:
     max_decel_m_s2: float = 4.0
     stop_margin_m: float = 6.0
     free_road_max_m: float = 90.0
-    max_lateral_accel_m_s2: float = 3.0
+    max_lateral_accel_m_s2: float = 2.0
     wheelbase_m: float = 5.0
 
     def __post_init__(self) -> None:
@@ -146,6 +146,8 @@ class MaskLaneKeeper:
             expect = 0.0 if self._prev_coeffs is None else float(np.polyval(self._prev_coeffs, self._x[k]))
             run = _pick_run(mask[r], yrow, expect)
             if run is None:
+                if rights and not (np.isfinite(rights[-1]) and np.isfinite(lefts[-1])):
+                    free = self.config.free_road_max_m  # it left the view sideways: it goes on
                 break  # the road ends (or is lost) here: nothing farther counts
             a, b = run
             free = self._x[k]
@@ -244,7 +246,11 @@ class MaskLaneKeeper:
         delta = pure_pursuit_steering((-c.wheelbase_m / 2.0, 0.0, 0.0), target, c.wheelbase_m)
         steer = float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))
         safe = math.sqrt(2.0 * c.max_decel_m_s2 * max(0.0, est.free_road_m - c.stop_margin_m))
-        kappa = abs(2.0 * est.coeffs[0]) / (1.0 + est.coeffs[1] ** 2) ** 1.5
+        # Curvature of the arc pure pursuit will drive (bounded by geometry, unlike the
+        # second derivative of a fitted polynomial).
+        rear = np.array([-c.wheelbase_m / 2.0, 0.0])
+        d = target - rear
+        kappa = abs(2.0 * d[1]) / float(d @ d)
         curve = math.sqrt(c.max_lateral_accel_m_s2 / kappa) if kappa > 1e-6 else math.inf
         v_des = min(c.target_speed_m_s, safe, curve)
         accel = float(np.clip(1.5 * (v_des - speed_m_s), -c.max_decel_m_s2, 3.0)) / ACCEL_RANGE_M_S2
