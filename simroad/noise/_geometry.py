@@ -20,7 +20,7 @@ import numpy as np
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 
-__all__ = ["ViewGeometry", "fresnel_unpolarized", "view_geometry"]
+__all__ = ["ViewGeometry", "ego_rotation", "ego_to_world", "fresnel_unpolarized", "view_geometry"]
 
 
 def fresnel_unpolarized(cos_i: np.ndarray, n: float) -> np.ndarray:
@@ -41,7 +41,7 @@ def fresnel_unpolarized(cos_i: np.ndarray, n: float) -> np.ndarray:
     return 0.5 * (rs + rp)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ViewGeometry:
     """Constants of one camera mounting (see the module docstring for frames).
 
@@ -55,6 +55,11 @@ class ViewGeometry:
         Camera height above the road and ahead of the ego centre, m.
     rays : ndarray float32 (H, W, 3)
         Unit ray of every pixel in the ego frame.
+    ray_planes : tuple of three ndarray float32 (H, W)
+        The same rays' X, Y and Z components as contiguous planes.
+    ray_planes_half : tuple of three ndarray float32 (ceil(H/2), ceil(W/2))
+        The rays of every other row and column (for smooth fields computed at half
+        resolution and upsampled).
     ground : ndarray bool (H, W)
         Pixels whose ray meets the ground within range.
     cos_view : ndarray float32 (H, W)
@@ -64,6 +69,9 @@ class ViewGeometry:
     mirror_map : tuple of two ndarray float32 (H, W)
         ``cv2.remap`` maps: the pixel that sees the mirror direction of each ground
         pixel's ray (environment treated as distant).
+    ground_xy : ndarray float32 (H, W, 2)
+        Ego-frame ground point (X forward, Y right) of every pixel, metres from the
+        ego centre; 0 where the pixel sees no ground.
     footprint : ndarray (N, 2)
         Convex hull of the visible ground in ego (X, Y), metres from the ego centre.
     half_fov_x, half_fov_y : float
@@ -79,10 +87,13 @@ class ViewGeometry:
     height_m: float
     forward_m: float
     rays: np.ndarray
+    ray_planes: tuple[np.ndarray, np.ndarray, np.ndarray]
+    ray_planes_half: tuple[np.ndarray, np.ndarray, np.ndarray]
     ground: np.ndarray
     cos_view: np.ndarray
     fresnel_water: np.ndarray
     mirror_map: tuple[np.ndarray, np.ndarray]
+    ground_xy: np.ndarray
     footprint: np.ndarray
     half_fov_x: float
     half_fov_y: float
@@ -95,6 +106,14 @@ class ViewGeometry:
             u = self.fx * pc[:, 0] / z + self.cx
             v = self.fy * pc[:, 1] / z + self.cy
         return u, v, z
+
+
+def ego_to_world(xy: np.ndarray, pose: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """World (x, y) of ego-frame ground points ``xy`` (..., 2) for ego ``pose``."""
+    x0, y0, h = pose
+    c, s = math.cos(h), math.sin(h)
+    X, Y = xy[..., 0], xy[..., 1]
+    return x0 + c * X - s * Y, y0 + s * X + c * Y
 
 
 def ego_rotation(pitch_deg: float) -> np.ndarray:
@@ -127,9 +146,8 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
     mu = np.where(bad, u, np.clip(mu, -1, W))
     mv = np.where(bad, v, np.clip(mv, -1, H))
     t = config.mount_height_m / np.where(ground, rays[..., 2], 1.0)
-    gx = (t * rays[..., 0])[ground] + config.forward_offset_m
-    gy = (t * rays[..., 1])[ground]
-    hull = cv2.convexHull(np.column_stack([gx, gy]).astype(np.float32)).reshape(-1, 2).astype(float)
+    gxy = np.where(ground[..., None], np.stack([t * rays[..., 0] + config.forward_offset_m, t * rays[..., 1]], -1), 0.0)
+    hull = cv2.convexHull(gxy[ground].astype(np.float32)).reshape(-1, 2).astype(float)
     hull = np.vstack([hull, [[config.forward_offset_m, 0.0]]])
     return ViewGeometry(
         config=config,
@@ -141,10 +159,13 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
         height_m=config.mount_height_m,
         forward_m=config.forward_offset_m,
         rays=rays.astype(np.float32),
+        ray_planes=tuple(np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3)),
+        ray_planes_half=tuple(np.ascontiguousarray(rays[::2, ::2, k], dtype=np.float32) for k in range(3)),
         ground=ground,
         cos_view=cos_view.astype(np.float32),
         fresnel_water=fres.astype(np.float32),
         mirror_map=(mu.astype(np.float32), mv.astype(np.float32)),
+        ground_xy=gxy.astype(np.float32),
         footprint=hull,
         half_fov_x=math.atan((W / 2) / K[0, 0]),
         half_fov_y=math.atan((H / 2) / K[1, 1]),

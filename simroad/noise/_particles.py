@@ -80,6 +80,13 @@ class ParticleField:
     def __len__(self) -> int:
         return len(self.radius_m)
 
+    @property
+    def max_speed(self) -> float:
+        """Largest fall plus flutter speed, m/s (cached: both are constant)."""
+        if not hasattr(self, "_max_speed"):
+            self._max_speed = float(self.fall_m_s.max() + self.drift_amp.max()) if len(self) else 0.0
+        return self._max_speed
+
 
 def _box_extent(geom: ViewGeometry, x_far: np.ndarray, x_near: float) -> tuple[np.ndarray, np.ndarray]:
     """Per-particle box lower corners and sizes for far limits ``x_far`` (m)."""
@@ -260,7 +267,7 @@ def streaks(
     """
     if len(field) == 0:
         return (np.zeros(0),) * 4 + (np.zeros(0, dtype=np.int64), np.zeros(0))
-    vmax = abs(speed) + float(np.hypot(*wind_ego)) + field.fall_m_s.max() + field.drift_amp.max() + abs(yaw_rate) * 30
+    vmax = abs(speed) + float(np.hypot(*wind_ego)) + field.max_speed + abs(yaw_rate) * 30
     idx = _frustum_candidates(field, geom, margin_m=vmax * exposure_s + 0.05)
     end = field.pos[idx]
     rel = relative_velocity(end, particle_velocity(field, wind_ego, time_s, idx), speed, yaw_rate, geom.forward_m)
@@ -272,19 +279,36 @@ def streaks(
         f = (ze[behind] - _Z_NEAR_M) / (ze[behind] - zs[behind])
         mid = end[behind] + f[:, None] * (start[behind] - end[behind])
         us[behind], vs[behind], _ = geom.ego_to_image(mid)
-    d = 2.0 * field.radius_m[idx] * geom.fx / np.maximum(ze, _Z_NEAR_M)
+    d = 2.0 * geom.fx * field.radius_m[idx] / np.maximum(ze, _Z_NEAR_M)
     length = np.hypot(ue - us, ve - vs)
     beta = np.minimum(d, 1.0) ** 2 * np.minimum(1.0, (d + 1.0) / np.maximum(length, 1e-9))
-    keep = (ze > _Z_NEAR_M) & (beta >= _BETA_MIN)
+    keep = np.flatnonzero((ze > _Z_NEAR_M) & (beta >= _BETA_MIN))
     d, us, vs, ue, ve, beta = d[keep], us[keep], vs[keep], ue[keep], ve[keep], beta[keep]
     width = np.clip(np.rint(d), 1, _MAX_WIDTH_PX).astype(np.int64)
     W, H = geom.config.width, geom.config.height
     m = width / 2.0
-    t0, t1, vis = _clip_to_rect(us, vs, ue, ve, -0.5 - m, W - 0.5 + m, -0.5 - m, H - 0.5 + m)
-    du, dv = ue - us, ve - vs
-    u0, v0 = us + t0 * du, vs + t0 * dv
-    u1, v1 = us + t1 * du, vs + t1 * dv
-    return u0[vis], v0[vis], u1[vis], v1[vis], width[vis], beta[vis]
+    lo_u, hi_u, lo_v, hi_v = -0.5 - m, W - 0.5 + m, -0.5 - m, H - 0.5 + m
+    out = (np.minimum(us, ue) < lo_u) | (np.maximum(us, ue) > hi_u) | (np.minimum(vs, ve) < lo_v) | (np.maximum(vs, ve) > hi_v)
+    if not out.any():
+        return us, vs, ue, ve, width, beta
+    o = np.flatnonzero(out)
+    t0, t1, ok = _clip_to_rect(us[o], vs[o], ue[o], ve[o], lo_u[o], hi_u[o], lo_v[o], hi_v[o])
+    du, dv = ue[o] - us[o], ve[o] - vs[o]
+    us[o], vs[o], ue[o], ve[o] = us[o] + t0 * du, vs[o] + t0 * dv, us[o] + t1 * du, vs[o] + t1 * dv
+    vis = np.ones(len(d), dtype=bool)
+    vis[o] = ok
+    return us[vis], vs[vis], ue[vis], ve[vis], width[vis], beta[vis]
+
+
+def _widen(u0, v0, u1, v1, width, beta):
+    """Replace each streak ``width`` pixels wide by ``width`` parallel 1-pixel streaks,
+    offset along its minor axis."""
+    rep = np.repeat(np.arange(len(width)), width)
+    off = np.arange(len(rep)) - np.repeat(np.cumsum(width) - width, width) - (width[rep] - 1) / 2.0
+    steep = np.abs(v1 - v0) > np.abs(u1 - u0)
+    ou = np.where(steep[rep], off, 0.0)
+    ov = np.where(steep[rep], 0.0, off)
+    return u0[rep] + ou, v0[rep] + ov, u1[rep] + ou, v1[rep] + ov, beta[rep]
 
 
 def splat_streaks(
@@ -299,33 +323,28 @@ def splat_streaks(
     """Sum of the streaks' β per pixel, clipped to 1 (a pixel's exposure is finite).
 
     Each streak is rasterised DDA-style, one sample per pixel along its major axis,
-    thickened to ``width`` pixels along its minor axis.
+    and ``width`` such lines side by side along its minor axis.
 
     Returns
     -------
     ndarray float32 (H, W)
     """
     H, W = shape
+    if len(beta) and width.max() > 1:
+        u0, v0, u1, v1, beta = _widen(u0, v0, u1, v1, width, beta)
     du, dv = u1 - u0, v1 - v0
     n = np.ceil(np.maximum(np.abs(du), np.abs(dv))).astype(np.int64) + 1
-    cnt = n * width
-    total = int(cnt.sum())
+    total = int(n.sum())
     if total == 0:
         return np.zeros(shape, dtype=np.float32)
-    owner = np.repeat(np.arange(len(beta)), cnt)
-    k = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-    w_o = width[owner]
-    t = (k // w_o) / np.maximum(n[owner] - 1, 1)
-    across = (k % w_o) - (w_o - 1) / 2.0
-    steep = (np.abs(dv) > np.abs(du))[owner]
-    u = u0[owner] + t * du[owner] + np.where(steep, across, 0.0)
-    v = v0[owner] + t * dv[owner] + np.where(steep, 0.0, across)
-    iu = np.rint(u).astype(np.int64)
-    iv = np.rint(v).astype(np.int64)
+    owner = np.repeat(np.arange(len(n)), n)
+    t = (np.arange(total) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(np.maximum(n - 1, 1), n)
+    iu = np.rint(u0[owner] + t * du[owner]).astype(np.int64)
+    iv = np.rint(v0[owner] + t * dv[owner]).astype(np.int64)
     inside = (iu >= 0) & (iu < W) & (iv >= 0) & (iv < H)
-    acc = np.bincount(iv[inside] * W + iu[inside], weights=beta[owner][inside], minlength=H * W)
-    out = acc.astype(np.float32).reshape(H, W)
-    return cv2.min(out, 1.0, dst=out)
+    acc = np.bincount((iv * W + iu)[inside], weights=beta[owner][inside], minlength=H * W)
+    acc = acc.astype(np.float32).reshape(H, W)
+    return cv2.min(acc, 1.0, dst=acc)
 
 
 def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:

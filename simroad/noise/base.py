@@ -273,8 +273,9 @@ class FrameState:
         return self._cache["rows"]
 
     def scene_mean(self) -> np.ndarray:
-        """Mean linear radiance per channel of the current image, (3,) float32."""
-        return np.array(cv2.mean(self.lin)[:3], dtype=np.float32)
+        """Mean linear radiance per channel of the current image as exposed (values
+        clipped at white, as the sensor records them), (3,) float32."""
+        return np.array(cv2.mean(cv2.min(self.lin, 1.0))[:3], dtype=np.float32)
 
     def sky_radiance(self) -> np.ndarray:
         """Mean linear radiance of the sky pixels, (3,); white if no sky is visible."""

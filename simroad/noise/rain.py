@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import cv2
 import numpy as np
@@ -48,7 +49,7 @@ import numpy as np
 from simroad._validation import check_choice, check_in_range, check_int_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
 from simroad.noise import _particles as pt
-from simroad.noise._geometry import view_geometry
+from simroad.noise._geometry import ViewGeometry, view_geometry
 from simroad.noise.base import FrameState, NoiseModel, Params, gray3, material_weights
 from simroad.noise.fog import koschmieder
 
@@ -170,7 +171,7 @@ class RainParams:
     wetness: float = 0.7
     haze_scale: float = 1.0
     airlight: float = 0.45
-    max_particles: int = 12000
+    max_particles: int = 6000
 
     def __post_init__(self) -> None:
         for name, lo, hi, unit in (
@@ -196,6 +197,17 @@ class RainParams:
     @property
     def is_identity(self) -> bool:
         return self.rate_mm_h == 0.0 and self.wetness == 0.0
+
+
+@lru_cache(maxsize=16)
+def _mirror_maps_cached(geom: ViewGeometry, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+    mx, my = geom.mirror_map
+    return cv2.convertMaps(mx[start:stop], my[start:stop], cv2.CV_16SC2, nninterpolation=True)
+
+
+def _mirror_maps(geom: ViewGeometry, rows: slice) -> tuple[np.ndarray, np.ndarray]:
+    """Fixed-point remap tables of the wet road's mirror image for ``rows``."""
+    return _mirror_maps_cached(geom, rows.start, rows.stop)
 
 
 def wind_in_ego(speed_m_s: float, dir_deg: float, heading_rad: float) -> np.ndarray:
@@ -236,8 +248,8 @@ class RainModel(NoiseModel):
             return
         geom = view_geometry(state.camera)
         r = state.ground_rows
-        mx, my = geom.mirror_map
-        refl = cv2.remap(state.lin, mx[r], my[r], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        m1, m2 = _mirror_maps(geom, r)
+        refl = cv2.remap(state.lin, m1, m2, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
         refl = cv2.blur(refl, (3, 9))
         k = material_weights(state, _MIRROR, 1.0)[r] * geom.fresnel_water[r] * np.float32(w)
         refl *= gray3(k)

@@ -1,0 +1,237 @@
+"""Roadside occluders placed lazily per world cell, and the shadows they cast.
+
+The world is cut into square cells. The occluders of cell (i, j) are drawn from a
+generator seeded by ``(episode seed, i, j)``, so a cell's contents never depend on
+which cells were visited before it. Trees, poles and buildings stand beside the road
+(outside every lane's shoulder polygon, at a distance typical of their kind);
+overpasses cross it.
+
+Shadows on the ground plane: a point at height z casts its shadow at
+``p − z·cot(e)·ŝ`` (ŝ the horizontal unit vector towards the sun, e the sun's
+elevation). A prism (a convex footprint between heights z0 and z1: trunks, poles,
+buildings, overpass decks) shadows the convex hull of its footprint shifted for z0
+and for z1; a sphere (a tree's canopy, radius r at height h) shadows an ellipse with
+semi-axes r across and r/sin(e) along ŝ, centred at the shifted centre. The penumbra
+is ``w = (z / sin e)·tan(sun diameter)`` wide for an edge at height z.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+__all__ = ["RoadIndex", "Shadows", "cell_occluders", "prism_shadows", "sphere_shadows"]
+
+N_VERT = 16
+KINDS = ("tree", "pole", "building")
+KIND_P = np.array([0.55, 0.30, 0.15])
+# Distance from the shoulder edge (m) at which each kind stands: (min, max).
+KIND_BAND = {"tree": (0.5, 8.0), "pole": (0.3, 2.5), "building": (4.0, 16.0)}
+_MEAN_BAND = float(sum(p * (hi - lo) for p, (lo, hi) in zip(KIND_P, KIND_BAND.values())))
+CORRIDOR_HALF_M = 6.0  # road + shoulders assumed without a world, along world x
+
+
+@dataclass
+class Shadows:
+    """Shadow polygons on the ground, world metres.
+
+    Attributes
+    ----------
+    polys : ndarray (P, 16, 2)
+        Convex polygons, padded by repeating the last vertex.
+    penumbra_m : ndarray (P,)
+        Penumbra width of each polygon's far edge, m.
+    bbox : ndarray (P, 4)
+        xmin, ymin, xmax, ymax.
+    """
+
+    polys: np.ndarray
+    penumbra_m: np.ndarray
+    bbox: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Shadows:
+        return cls(np.zeros((0, N_VERT, 2)), np.zeros(0), np.zeros((0, 4)))
+
+    @classmethod
+    def concat(cls, parts: list[Shadows]) -> Shadows:
+        parts = [p for p in parts if len(p.penumbra_m)]
+        if not parts:
+            return cls.empty()
+        return cls(*(np.concatenate([getattr(p, f) for p in parts]) for f in ("polys", "penumbra_m", "bbox")))
+
+    def select(self, keep: np.ndarray) -> Shadows:
+        return Shadows(self.polys[keep], self.penumbra_m[keep], self.bbox[keep])
+
+
+def _finish(polys: np.ndarray, penumbra: np.ndarray) -> Shadows:
+    bbox = np.column_stack([polys[:, :, 0].min(1), polys[:, :, 1].min(1), polys[:, :, 0].max(1), polys[:, :, 1].max(1)])
+    return Shadows(polys, penumbra, bbox)
+
+
+def sphere_shadows(centre: np.ndarray, height: np.ndarray, radius: np.ndarray, sun: tuple[float, float], sun_diam_rad: float) -> Shadows:
+    """Elliptic shadows of spheres; ``sun = (azimuth, elevation)`` in rad."""
+    az, el = sun
+    s = np.array([math.cos(az), math.sin(az)])
+    n = np.array([-s[1], s[0]])
+    cot, sin_e = 1.0 / math.tan(el), math.sin(el)
+    ctr = centre - (height * cot)[:, None] * s
+    phi = np.linspace(0.0, 2 * np.pi, N_VERT, endpoint=False)
+    a = (radius / sin_e)[:, None, None] * np.cos(phi)[None, :, None] * s
+    b = radius[:, None, None] * np.sin(phi)[None, :, None] * n
+    polys = ctr[:, None, :] + a + b
+    return _finish(polys, height / sin_e * math.tan(sun_diam_rad))
+
+
+def prism_shadows(footprints: list[np.ndarray], z0: np.ndarray, z1: np.ndarray, sun: tuple[float, float], sun_diam_rad: float) -> Shadows:
+    """Shadows of vertical prisms (convex footprint (K, 2), heights z0 < z1, m)."""
+    if not footprints:
+        return Shadows.empty()
+    az, el = sun
+    s = np.array([math.cos(az), math.sin(az)]) / math.tan(el)
+    polys = np.empty((len(footprints), N_VERT, 2))
+    for k, fp in enumerate(footprints):
+        pts = np.vstack([fp - z0[k] * s, fp - z1[k] * s]).astype(np.float32)
+        hull = cv2.convexHull(pts).reshape(-1, 2)[:N_VERT]
+        polys[k, : len(hull)] = hull
+        polys[k, len(hull) :] = hull[-1]
+    return _finish(polys, z1 / math.sin(el) * math.tan(sun_diam_rad))
+
+
+def _rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.ndarray:
+    c, s = math.cos(heading), math.sin(heading)
+    f, r = np.array([c, s]) * length / 2, np.array([-s, c]) * width / 2
+    return np.array([centre + f - r, centre + f + r, centre - f + r, centre - f - r])
+
+
+class RoadIndex:
+    """Lane outlines for placement: distance to the road and lane centrelines.
+
+    Parameters
+    ----------
+    shapes : list of LaneShape or None
+        ``WorldRaster.shapes`` (their ``surface`` polygons); ``None`` assumes a
+        straight road along world x, ``CORRIDOR_HALF_M`` on each side of y = 0 (road
+        and shoulders).
+    shoulder_m : float
+        Shoulder width beside each lane surface, m.
+    """
+
+    def __init__(self, shapes=None, shoulder_m: float = 1.0) -> None:
+        self.straight = shapes is None
+        self.shoulder_m = float(shoulder_m)
+        self.contours, self.bboxes, self.centres = [], [], []
+        for sh in shapes or []:
+            surf = np.asarray(sh.surface, dtype=float)
+            self.contours.append(surf.astype(np.float32).reshape(-1, 1, 2))
+            lo, hi = surf.min(axis=0) - self.shoulder_m, surf.max(axis=0) + self.shoulder_m
+            self.bboxes.append((lo[0], lo[1], hi[0], hi[1]))
+            half = len(surf) // 2
+            self.centres.append(0.5 * (surf[:half] + surf[::-1][:half]))
+        self.bboxes = np.asarray(self.bboxes, dtype=float).reshape(-1, 4)
+
+    def distance(self, pts: np.ndarray, reach: float) -> np.ndarray:
+        """Distance (m) from points (N, 2) to the road's shoulder edge; ``-1`` on the
+        road or its shoulder, ``inf`` farther than ``reach`` from any lane."""
+        if self.straight:
+            d = np.abs(pts[:, 1]) - CORRIDOR_HALF_M
+            return np.where(d < 0, -1.0, d)
+        out = np.full(len(pts), np.inf)
+        b = self.bboxes
+        for k, (x, y) in enumerate(pts):
+            near = np.flatnonzero((b[:, 0] - reach <= x) & (b[:, 2] + reach >= x) & (b[:, 1] - reach <= y) & (b[:, 3] + reach >= y))
+            for c in near:
+                d = -cv2.pointPolygonTest(self.contours[c], (float(x), float(y)), True) - self.shoulder_m
+                out[k] = min(out[k], d)
+        return np.where(out < 0, -1.0, out)
+
+    def crossing_in(self, box: tuple[float, float, float, float], rng: np.random.Generator) -> tuple[np.ndarray, float] | None:
+        """A random lane-centre point in ``box`` and the lane's heading there."""
+        if self.straight:
+            if box[1] > 0 or box[3] < 0:
+                return None
+            return np.array([rng.uniform(box[0], box[2]), 0.0]), 0.0
+        cands = []
+        for c in self.centres:
+            inside = np.flatnonzero((c[:, 0] >= box[0]) & (c[:, 0] < box[2]) & (c[:, 1] >= box[1]) & (c[:, 1] < box[3]))
+            cands += [(c, i) for i in inside]
+        if not cands:
+            return None
+        c, i = cands[int(rng.integers(len(cands)))]
+        j = min(i + 1, len(c) - 1)
+        i0 = j - 1 if j > 0 else 0
+        d = c[j] - c[i0]
+        return c[i].copy(), math.atan2(d[1], d[0])
+
+
+def cell_occluders(
+    rng: np.random.Generator,
+    box: tuple[float, float, float, float],
+    road: RoadIndex,
+    *,
+    per_100m: float,
+    overpass_per_km: float,
+    sun: tuple[float, float],
+    sun_diam_rad: float,
+) -> Shadows:
+    """Place one cell's occluders and return their shadows.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The cell's own generator.
+    box : (xmin, ymin, xmax, ymax)
+        The cell, world metres.
+    per_100m : float
+        Roadside occluders per 100 m of road (both sides; approximate on curves).
+    overpass_per_km : float
+        Overpasses per km of road.
+    """
+    x0, y0, x1, y1 = box
+    area = (x1 - x0) * (y1 - y0)
+    lam = per_100m / (100.0 * 2.0 * _MEAN_BAND) * area
+    n = int(rng.poisson(lam))
+    pts = np.column_stack([rng.uniform(x0, x1, n), rng.uniform(y0, y1, n)])
+    kind = rng.choice(len(KINDS), size=n, p=KIND_P)
+    dims = rng.random((n, 4))
+    dist = road.distance(pts, reach=20.0)
+    spheres, prisms = ([], [], []), ([], [], [])
+    for k in range(n):
+        name = KINDS[kind[k]]
+        lo, hi = KIND_BAND[name]
+        u = dims[k]
+        if name == "building":
+            w, l, h, yaw = 6 + 10 * u[0], 6 + 10 * u[1], 4 + 10 * u[2], math.pi * u[3]
+            lo += 0.5 * math.hypot(w, l)
+            hi += 0.5 * math.hypot(w, l)
+            if lo <= dist[k] <= hi:
+                prisms[0].append(_rect(pts[k], yaw, l, w))
+                prisms[1].append(0.0)
+                prisms[2].append(h)
+        elif lo <= dist[k] <= hi:
+            if name == "tree":
+                trunk, r, tr = 1.5 + 2.0 * u[0], 1.5 + 2.0 * u[1], 0.15 + 0.15 * u[2]
+                spheres[0].append(pts[k])
+                spheres[1].append(trunk + 0.8 * r)
+                spheres[2].append(r)
+                height, rad = trunk + 0.3 * r, tr
+            else:
+                height, rad = 6.0 + 5.0 * u[0], 0.10 + 0.08 * u[1]
+            prisms[0].append(_rect(pts[k], 0.0, 2 * rad, 2 * rad))
+            prisms[1].append(0.0)
+            prisms[2].append(height)
+    if overpass_per_km > 0 and rng.random() < min(1.0, overpass_per_km * (x1 - x0) / 1000.0):
+        hit = road.crossing_in(box, rng)
+        if hit is not None:
+            centre, heading = hit
+            depth, bottom = 8.0 + 6.0 * rng.random(), 5.0 + 1.5 * rng.random()
+            prisms[0].append(_rect(centre, heading, depth, 36.0))
+            prisms[1].append(bottom)
+            prisms[2].append(bottom + 1.2)
+    parts = [prism_shadows(prisms[0], np.array(prisms[1]), np.array(prisms[2]), sun, sun_diam_rad)]
+    if spheres[0]:
+        parts.append(sphere_shadows(np.array(spheres[0]), np.array(spheres[1]), np.array(spheres[2]), sun, sun_diam_rad))
+    return Shadows.concat(parts)

@@ -1,0 +1,190 @@
+"""One way to ask for weather: a spec string, a severity, optional physical params.
+
+``"clear"``, ``"rain"``, ``"snow"``, ``"shadow"``, ``"glare"``, ``"fog"`` and their
+compositions joined by ``+`` (``"rain+glare"``, ``"snow+shadow"``). Names may come in
+any order and are kept in the canonical order of :data:`NOISE_NAMES`; duplicates and
+``"clear"`` inside a composition are rejected. Whatever the order of the names, the
+models act in physical order, stage by stage (:data:`simroad.noise.base.STAGES`):
+the surface first (wet road, settled snow, shadows, specular glare), then the
+atmosphere (haze, fog), then the particles nearest the camera, then the lens (veil,
+bloom) and the sensor's saturation.
+
+Composed models share one world: the rain's water film feeds the glare's wet lobe,
+fog dims the sun for shadows and glare, shadows block the glare's specular lobe, and
+``"shadow+glare"`` casts the shadows with the glare's sun.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from simroad._validation import SimroadError, check_choice, check_in_range, normalize_rng
+from simroad.noise.base import NoiseContext, NoiseModel, Params, run_models
+from simroad.noise.fog import FogModel
+from simroad.noise.glare import GlareModel
+from simroad.noise.rain import RainModel
+from simroad.noise.shadow import ShadowModel
+from simroad.noise.snow import SnowModel
+
+__all__ = ["MODELS", "NOISE_NAMES", "Weather", "apply_noise", "make_weather", "parse_noise"]
+
+NOISE_NAMES = ("clear", "rain", "snow", "shadow", "glare", "fog")
+MODELS: dict[str, type[NoiseModel]] = {
+    "rain": RainModel,
+    "snow": SnowModel,
+    "shadow": ShadowModel,
+    "glare": GlareModel,
+    "fog": FogModel,
+}
+
+
+def parse_noise(spec: str) -> tuple[str, ...]:
+    """Parse a weather spec into its model names in canonical order.
+
+    >>> parse_noise("glare+rain")
+    ('rain', 'glare')
+    >>> parse_noise("clear")
+    ()
+    """
+    if not isinstance(spec, str):
+        raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {type(spec).__name__}.")
+    parts = [p.strip().lower() for p in spec.split("+")]
+    if any(p == "" for p in parts):
+        raise SimroadError(f"noise: empty name in {spec!r}; join names with a single '+', e.g. 'rain+glare'.")
+    for p in parts:
+        check_choice("noise", p, NOISE_NAMES)
+    dup = sorted({p for p in parts if parts.count(p) > 1})
+    if dup:
+        raise SimroadError(f"noise: {', '.join(map(repr, dup))} given more than once in {spec!r}; name each noise once.")
+    if "clear" in parts:
+        if len(parts) > 1:
+            raise SimroadError(f"noise: 'clear' cannot be combined with other noises, got {spec!r}.")
+        return ()
+    return tuple(n for n in NOISE_NAMES if n in parts)
+
+
+class Weather:
+    """The weather of an episode: one model per noise, composed in physical order.
+
+    Build with :func:`make_weather`; call :meth:`reset` at every episode start and
+    :meth:`apply` once per frame, in order (rain and snow move between frames).
+
+    Attributes
+    ----------
+    names : tuple of str
+        Active noises in canonical order (empty for ``"clear"``).
+    severity : float
+    models : dict str -> NoiseModel
+    """
+
+    def __init__(self, names: tuple[str, ...], severity: float, params: Mapping[str, Params] | None = None) -> None:
+        self.names = tuple(names)
+        self.severity = check_in_range("severity", severity, 0.0, 1.0)
+        params = _check_params(params, self.names)
+        self.models = {
+            n: MODELS[n](params[n] if n in params else MODELS[n].params_type.from_severity(self.severity))
+            for n in self.names
+        }
+
+    @property
+    def spec(self) -> str:
+        """Canonical spec string, e.g. ``"rain+glare"`` or ``"clear"``."""
+        return "+".join(self.names) or "clear"
+
+    def __repr__(self) -> str:
+        return f"Weather({self.spec!r}, severity={self.severity:g})"
+
+    def reset(self, rng: np.random.Generator | int, *, world=None) -> None:
+        """Start an episode: every model draws its state from ``rng`` (in canonical
+        order); ``world`` is the episode's WorldRaster, or ``None`` outside the env."""
+        rng = normalize_rng(rng)
+        for m in self.models.values():
+            m.reset(rng, world=world)
+        if "shadow" in self.models and "glare" in self.models:
+            self.models["shadow"].set_sun(*self.models["glare"].sun)
+
+    def apply(self, image: np.ndarray, ctx: NoiseContext | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Spoil one frame.
+
+        Parameters
+        ----------
+        image : ndarray uint8 (H, W, 3), or float32/float64 in [0, 1]
+            The clean frame (never modified).
+        ctx : NoiseContext, optional
+            Geometry and motion of the frame; ``None`` for a static flat-ground view.
+
+        Returns
+        -------
+        noisy : ndarray, same shape and dtype as ``image``
+        masks : dict str -> ndarray bool (H, W)
+            Per active noise, the pixels it changed by at least
+            :data:`~simroad.noise.base.MASK_THRESHOLD` grey levels on any channel.
+        """
+        return run_models(list(self.models.values()), image, ctx)
+
+
+def _check_params(params, names: tuple[str, ...]) -> dict[str, Params]:
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping):
+        raise SimroadError(f"params: expected a dict noise name -> Params, got {type(params).__name__}.")
+    out = {}
+    for key, value in params.items():
+        check_choice("params key", key, names or ("(none: the weather is 'clear')",))
+        want = MODELS[key].params_type
+        if not isinstance(value, want):
+            raise SimroadError(f"params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")
+        out[key] = value
+    return out
+
+
+def make_weather(spec: str, severity: float = 0.5, params: Mapping[str, Params] | None = None) -> Weather:
+    """Build the weather for a spec string.
+
+    Parameters
+    ----------
+    spec : str
+        ``"clear"``, a noise name, or names joined by ``+`` (see :data:`NOISE_NAMES`).
+    severity : float
+        In [0, 1]; mapped to physical parameters by each model's
+        ``Params.from_severity`` (tables in the model modules and docs/weather.md).
+        0 leaves frames bit-identical.
+    params : dict str -> Params, optional
+        Physical parameters that replace the severity mapping for some noises,
+        e.g. ``{"rain": RainParams(rate_mm_h=50)}``.
+
+    Examples
+    --------
+    >>> weather = make_weather("rain+glare", severity=0.7)
+    >>> weather.reset(np.random.default_rng(0))
+    """
+    return Weather(parse_noise(spec), severity, params)
+
+
+def apply_noise(
+    image: np.ndarray,
+    spec: str,
+    *,
+    severity: float = 0.5,
+    rng: np.random.Generator | int,
+    camera=None,
+    depth: np.ndarray | None = None,
+    material: np.ndarray | None = None,
+    params: Mapping[str, Params] | None = None,
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Spoil a single image (a rendered frame or a photograph).
+
+    Without ``camera`` the image is taken as seen by the default dashboard camera
+    over flat ground (:func:`~simroad.noise.base.flat_ground_camera`), and without
+    ``depth`` the camera's flat-ground depth is used.
+
+    Returns
+    -------
+    noisy : ndarray, same shape and dtype as ``image``
+    masks : dict str -> ndarray bool (H, W)
+    """
+    weather = make_weather(spec, severity, params)
+    weather.reset(rng)
+    return weather.apply(image, NoiseContext(camera=camera, depth=depth, material=material))
