@@ -48,6 +48,61 @@ def _cmd_frames(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_episode(args: argparse.Namespace) -> int:
+    import json
+
+    from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
+    from simroad.experiments.gate import check_requirements, parse_requirement
+
+    requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
+    spec = EpisodeSpec(
+        scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
+        driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
+        route_m=args.route_m, env_options={"width": args.width, "height": args.height, "hfov_deg": args.hfov, "pitch_deg": args.pitch},
+    )  # fmt: skip
+    record = run_episode(spec, video=args.video)
+    if args.json:
+        print(json.dumps(record))
+    else:
+        for key in RECORD_KEYS:
+            value = record[key]
+            print(f"{key:>18}: {value:.4g}" if isinstance(value, float) else f"{key:>18}: {value}")
+    failures = check_requirements(record, requirements)
+    for msg in failures:
+        print(f"simroad episode: {msg}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def _cmd_ablate(args: argparse.Namespace) -> int:
+    from simroad.experiments.ablate import run_ablation
+    from simroad.experiments.grid import AblationGrid, load_grid_file
+    from simroad.experiments.report import build_report
+
+    opts = load_grid_file(args.config) if args.config else {}
+    for key in ("scenarios", "noises", "severities", "filters", "seeds", "seed_start", "steps", "workers", "backend", "ray_address", "out"):
+        value = getattr(args, key)
+        if value is not None:
+            opts[key] = value
+    run = {k: opts.pop(k) for k in ("workers", "backend", "ray_address", "out") if k in opts}
+    if "out" not in run:
+        print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
+        return 2
+    grid = AblationGrid(**opts)
+    records = run_ablation(grid, run["out"], workers=run.get("workers"), backend=run.get("backend", "local"), ray_address=run.get("ray_address"), fresh=args.fresh, progress=not args.quiet)
+    paths = build_report(run["out"])
+    failed = sum(1 for r in records if r.get("error"))
+    print(f"{len(records)} episodes in {run['out']}/results.jsonl ({failed} failed); report: " + ", ".join(str(p) for p in paths.values()))
+    return 0
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from simroad.experiments.report import build_report
+
+    paths = build_report(args.dir)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0
+
+
 def _cmd_figure(args: argparse.Namespace) -> int:
     from simroad.experiments import figures
 
@@ -74,6 +129,39 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output directory (created)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_frames)
+
+    p = sub.add_parser("episode", help="run one closed-loop episode and score it", description="Drive one episode: the camera frame goes to the driver (the road detector + lane keeping, or the oracle on the ground-truth mask); the episode is scored on the mask (FNR/FPR) and on safety. Exit status 1 if a --require fails.")
+    _add_env_options(p)
+    p.add_argument("--filters", default="none", help="detector filters: none, all, or names joined by '+' (shadow, rain_snow, light), e.g. shadow+light")
+    p.add_argument("--driver", default="detector", help="detector (default) or oracle")
+    p.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
+    p.add_argument("--steps", type=int, default=300, help="maximum policy steps at 5 Hz (default: 300)")
+    p.add_argument("--route-m", type=float, default=None, help="route length in m (default: cruise speed x steps x 0.2 s)")
+    p.add_argument("--video", default=None, help="write an .mp4 or .gif of the episode")
+    p.add_argument("--json", action="store_true", help="print one JSON object with the record")
+    p.add_argument("--require", action="append", default=[], metavar="KEY<=VALUE", help="a gate such as 'offroad_fraction<=0.01' (any record key; <, <=, >, >=); repeatable")
+    p.set_defaults(func=_cmd_episode)
+
+    p = sub.add_parser("ablate", help="run an ablation sweep (resumable) and write its report", description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, error_rates.png and safety.png are written.")
+    p.add_argument("--config", help="a TOML file with the same names as keys (flags override it)")
+    p.add_argument("--scenarios", help="comma-separated, e.g. racetrack,winding")
+    p.add_argument("--noises", help="comma-separated, e.g. clear,rain,snow,shadow,glare or rain+glare")
+    p.add_argument("--severities", help="comma-separated values in [0, 1], e.g. 0.4,0.8")
+    p.add_argument("--filters", help="comma-separated filter sets: none, all, shadow, rain_snow, light, shadow+light, ...")
+    p.add_argument("--seeds", type=int, help="number of seeds (default 3)")
+    p.add_argument("--seed-start", dest="seed_start", type=int, help="first seed (default 0)")
+    p.add_argument("--steps", type=int, help="policy steps per episode (default 150)")
+    p.add_argument("--workers", type=int, help="parallel episodes (default: all cores)")
+    p.add_argument("--backend", help="local (process pool, default) or ray")
+    p.add_argument("--ray-address", dest="ray_address", help="Ray cluster address (with --backend ray)")
+    p.add_argument("--out", help="output directory")
+    p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_ablate)
+
+    p = sub.add_parser("report", help="rebuild a sweep's tables and figures from results.jsonl")
+    p.add_argument("dir", help="the sweep's output directory")
+    p.set_defaults(func=_cmd_report)
 
     p = sub.add_parser("figure", help="draw a documentation figure", description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).")
     p.add_argument("what", choices=("camera", "weather"), help="which figure")

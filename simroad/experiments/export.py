@@ -64,8 +64,8 @@ def export_frames(
     """
     count = check_int_in_range("count", count, 1, 100_000)
     every = check_int_in_range("every", every, 1, 1000)
+    env = RoadCamEnv(**(env_kwargs or {}))  # validate every option before touching the disk
     out_dir = ensure_writable_dir("out", out)
-    env = RoadCamEnv(**(env_kwargs or {}))
     obs, info = env.reset(seed=int(seed))
     cam = env.camera
     frames_meta = []

@@ -37,10 +37,12 @@ def test_unwritable_out_exits_2_with_message(tmp_path, capsys):
     assert "out" in err and "writable" in err
 
 
-def test_unknown_scenario_exits_2_and_suggests(capsys):
-    code = main(["frames", "--scenario", "higway", "--count", "1", "--out", "/tmp/never", "--quiet"])
+def test_unknown_scenario_exits_2_and_suggests(tmp_path, capsys):
+    out = tmp_path / "never"
+    code = main(["frames", "--scenario", "higway", "--count", "1", "--out", str(out), "--quiet"])
     assert code == 2
     assert "Did you mean 'highway'" in capsys.readouterr().err
+    assert not out.exists()  # nothing written before the input was checked
 
 
 def test_every_subcommand_has_help():

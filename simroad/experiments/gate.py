@@ -1,0 +1,62 @@
+"""``--require`` gates: ``'offroad_fraction<=0.01'`` checked against an episode record."""
+
+from __future__ import annotations
+
+import operator
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from simroad._validation import SimroadError, check_choice
+
+__all__ = ["Requirement", "check_requirements", "parse_requirement"]
+
+_OPS = {"<=": operator.le, ">=": operator.ge, "<": operator.lt, ">": operator.gt}
+_PATTERN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(<=|>=|<|>)\s*([-+0-9.eE]+|true|false)\s*$")
+
+
+@dataclass(frozen=True)
+class Requirement:
+    """``key op value``, e.g. ``fnr <= 0.05``."""
+
+    key: str
+    op: str
+    value: float
+
+    def holds(self, actual: Any) -> bool:
+        if actual is None:  # e.g. min_ttc_s when nothing ever closed in: infinitely safe
+            actual = float("inf")
+        return bool(_OPS[self.op](float(actual), self.value))
+
+    def __str__(self) -> str:
+        return f"{self.key}{self.op}{self.value:g}"
+
+
+def parse_requirement(text: str, *, valid_keys: Sequence[str]) -> Requirement:
+    """Parse ``'key<=value'`` (operators ``<``, ``<=``, ``>``, ``>=``)."""
+    m = _PATTERN.match(text)
+    if not m:
+        raise SimroadError(
+            f"require: cannot parse {text!r}; expected KEY OP VALUE with OP one of <, <=, >, >= "
+            f"(for example 'offroad_fraction<=0.01')."
+        )
+    key, op, raw = m.groups()
+    check_choice("require", key, valid_keys)
+    value = {"true": 1.0, "false": 0.0}.get(raw)
+    if value is None:
+        try:
+            value = float(raw)
+        except ValueError:
+            raise SimroadError(f"require: {raw!r} in {text!r} is not a number.") from None
+    return Requirement(key, op, value)
+
+
+def check_requirements(record: Mapping[str, Any], requirements: Sequence[Requirement]) -> list[str]:
+    """Messages for the violated requirements (empty when all hold)."""
+    out = []
+    for req in requirements:
+        actual = record.get(req.key)
+        if not req.holds(actual):
+            out.append(f"requirement {req} violated: {req.key} = {actual}")
+    return out

@@ -1,0 +1,122 @@
+"""The ablation grid: which episodes a sweep runs, from flags or a TOML file."""
+
+from __future__ import annotations
+
+import difflib
+import hashlib
+import json
+import os
+import sys
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.envs.config import SCENARIO_NAMES
+from simroad.experiments.episode import EpisodeSpec, format_filters, parse_filters
+
+__all__ = ["AblationGrid", "cell_key", "load_grid_file"]
+
+
+def _split(name: str, value: Any) -> list[str]:
+    if isinstance(value, str):
+        items = [v.strip() for v in value.split(",")]
+    elif isinstance(value, (list, tuple)):
+        items = [str(v).strip() for v in value]
+    else:
+        raise SimroadError(f"{name}: expected a comma-separated string or a list, got {value!r}.")
+    items = [v for v in items if v]
+    if not items:
+        raise SimroadError(f"{name}: the list is empty; give at least one value.")
+    return items
+
+
+@dataclass(frozen=True)
+class AblationGrid:
+    """scenarios x noises x severities x filter sets x seeds, plus one oracle row per
+    scenario x noise x severity x seed.
+
+    ``clear`` weather has no severity: it runs once, recorded with severity 0.
+    """
+
+    scenarios: tuple[str, ...] = ("racetrack", "winding")
+    noises: tuple[str, ...] = ("clear", "rain", "snow", "shadow", "glare")
+    severities: tuple[float, ...] = (0.7,)
+    filters: tuple[str, ...] = ("none", "all")
+    seeds: int = 3
+    seed_start: int = 0
+    steps: int = 150
+    traffic: bool = True
+    oracle: bool = True
+
+    def __post_init__(self) -> None:
+        from simroad.noise import parse_noise
+
+        scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
+        noises = tuple("+".join(parse_noise(n)) or "clear" for n in _split("noises", self.noises))
+        sev = tuple(check_in_range("severities", float(v), 0.0, 1.0) for v in _split("severities", self.severities))
+        filt = tuple(format_filters(parse_filters(f)) for f in _split("filters", self.filters))
+        for name, vals in (("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt)):
+            if len(set(vals)) != len(vals):
+                raise SimroadError(f"{name}: duplicate values in {list(vals)}.")
+        object.__setattr__(self, "scenarios", scen)
+        object.__setattr__(self, "noises", noises)
+        object.__setattr__(self, "severities", sev)
+        object.__setattr__(self, "filters", filt)
+        check_int_in_range("seeds", self.seeds, 1, 100_000)
+        check_int_in_range("seed_start", self.seed_start, 0, 2**31 - 1 - self.seeds)
+        check_int_in_range("steps", self.steps, 1, 1_000_000)
+
+    def specs(self) -> list[EpisodeSpec]:
+        """Every episode of the grid, in a fixed order."""
+        out = []
+        for scenario in self.scenarios:
+            for noise in self.noises:
+                for severity in (0.0,) if noise == "clear" else self.severities:
+                    for seed in range(self.seed_start, self.seed_start + self.seeds):
+                        base = dict(scenario=scenario, noise=noise, severity=severity, seed=seed, steps=self.steps, traffic=self.traffic)
+                        if self.oracle:
+                            out.append(EpisodeSpec(driver="oracle", **base))
+                        for f in self.filters:
+                            out.append(EpisodeSpec(driver="detector", filters=parse_filters(f), **base))
+        return out
+
+    def fingerprint(self) -> str:
+        """A digest of everything that defines the grid's results."""
+        text = json.dumps(asdict(self), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def cell_key(spec_or_record) -> str:
+    """The identity of one grid cell (one episode)."""
+    get = spec_or_record.get if isinstance(spec_or_record, dict) else lambda k: getattr(spec_or_record, k)
+    filters = get("filters")
+    filters = filters if isinstance(filters, str) else format_filters(filters)
+    return f"{get('scenario')}|{get('noise')}|{float(get('severity')):g}|{filters}|{get('driver')}|{int(get('seed'))}"
+
+
+def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
+    """Read a TOML grid file; keys are AblationGrid's fields (``seed-start`` or
+    ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover
+        import tomli as tomllib
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        raise SimroadError(f"config: file {str(p)!r} not found.") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SimroadError(f"config: {str(p)!r} is not valid TOML ({exc}).") from None
+    valid = [f.name for f in fields(AblationGrid)] + ["workers", "backend", "ray_address", "out"]
+    out = {}
+    for key, value in data.items():
+        k = key.replace("-", "_")
+        if k not in valid:
+            close = difflib.get_close_matches(k, valid, n=1)
+            hint = f" Did you mean {close[0]!r}?" if close else ""
+            raise SimroadError(f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}")
+        out[k] = value
+    return out
+

@@ -1,0 +1,191 @@
+"""Reports of a sweep, rebuilt from ``results.jsonl`` alone (``simroad report DIR``).
+
+``summary.csv`` / ``summary.md``
+    One row per scenario x noise x severity x filters x driver: the number of
+    episodes, failed episodes, and mean with 95 % confidence half-width (Student t
+    over seeds) of FNR, FPR, IoU, off-road fraction, collision rate, lateral RMSE and
+    driving score.
+``error_rates.png``
+    The paper's Fig. 7a done properly: pooled-per-episode FNR and FPR per noise, one
+    bar per filter set, with 95 % confidence intervals.
+``safety.png``
+    Off-road fraction and driving score against severity, per noise: detector without
+    filters, with all filters, and the oracle.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from simroad._validation import SimroadError
+
+__all__ = ["METRICS", "build_report", "summarise"]
+
+#: Summary column -> record key (collision rate is the mean of ``collided``).
+METRICS = {
+    "fnr": "fnr",
+    "fpr": "fpr",
+    "iou": "iou",
+    "offroad_fraction": "offroad_fraction",
+    "collision_rate": "collided",
+    "lateral_rmse_m": "lateral_rmse_m",
+    "driving_score": "driving_score",
+}
+_GROUP = ("scenario", "noise", "severity", "filters", "driver")
+
+
+def _mean_ci(values: list[float]) -> tuple[float, float]:
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
+    if len(v) == 0:
+        return math.nan, math.nan
+    if len(v) == 1:
+        return float(v[0]), math.nan
+    from scipy import stats
+
+    half = float(stats.t.ppf(0.975, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v)))
+    return float(v.mean()), half
+
+
+def summarise(records: list[dict]) -> list[dict]:
+    """Aggregate episode records into one row per grid cell group."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in records:
+        groups[tuple(r[k] for k in _GROUP)].append(r)
+    rows = []
+    for key in sorted(groups, key=lambda k: tuple(str(x) for x in k)):
+        recs = groups[key]
+        ok = [r for r in recs if not r.get("error")]
+        row = dict(zip(_GROUP, key))
+        row["episodes"] = len(recs)
+        row["failed"] = len(recs) - len(ok)
+        for col, src in METRICS.items():
+            mean, half = _mean_ci([float(r[src]) for r in ok])
+            row[col] = mean
+            row[f"{col}_ci95"] = half
+        rows.append(row)
+    return rows
+
+
+def _write_csv(rows: list[dict], path: Path) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def _fmt(mean: float, half: float, pct: bool) -> str:
+    if not math.isfinite(mean):
+        return "–"
+    k = 100.0 if pct else 1.0
+    text = f"{mean * k:.2f}" if pct else f"{mean:.3f}"
+    return text + (f" ± {half * k:.2f}" if pct and math.isfinite(half) else f" ± {half:.3f}" if math.isfinite(half) else "")
+
+
+def _write_md(rows: list[dict], path: Path) -> None:
+    cols = ["scenario", "noise", "severity", "filters", "driver", "episodes"]
+    head = cols + ["FNR %", "FPR %", "IoU", "off-road %", "collision %", "lat. RMSE m", "driving score"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [str(r[c]) for c in cols]
+        cells += [
+            _fmt(r["fnr"], r["fnr_ci95"], True),
+            _fmt(r["fpr"], r["fpr_ci95"], True),
+            _fmt(r["iou"], r["iou_ci95"], False),
+            _fmt(r["offroad_fraction"], r["offroad_fraction_ci95"], True),
+            _fmt(r["collision_rate"], r["collision_rate_ci95"], True),
+            _fmt(r["lateral_rmse_m"], r["lateral_rmse_m_ci95"], False),
+            _fmt(r["driving_score"], r["driving_score_ci95"], False),
+        ]
+        lines.append("| " + " | ".join(cells) + " |")
+    text = "# Ablation summary\n\nMean ± 95 % confidence half-width over seeds (Student t).\n\n" + "\n".join(lines) + "\n"
+    path.write_text(text)
+
+
+def _error_rates_figure(records: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    det = [r for r in records if r["driver"] == "detector" and not r.get("error")]
+    noises = sorted({r["noise"] for r in det}, key=lambda n: (n != "clear", n))
+    filters = sorted({r["filters"] for r in det}, key=lambda f: (f != "none", f == "all", f))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=False)
+    width = 0.8 / max(1, len(filters))
+    for ax, metric in zip(axes, ("fnr", "fpr")):
+        for j, f in enumerate(filters):
+            stats = [_mean_ci([100 * r[metric] for r in det if r["noise"] == n and r["filters"] == f]) for n in noises]
+            means = [m for m, _ in stats]
+            errs = [h if math.isfinite(h) else 0.0 for _, h in stats]
+            xs = np.arange(len(noises)) + (j - (len(filters) - 1) / 2) * width
+            ax.bar(xs, means, width, yerr=errs, capsize=3, label=f"filters: {f}")
+        ax.set_xticks(np.arange(len(noises)), noises, rotation=20)
+        ax.set_ylabel(f"{metric.upper()} (%)")
+        ax.set_title(f"{metric.upper()} per noise (mean, 95 % CI)")
+        ax.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def _safety_figure(records: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = [r for r in records if not r.get("error")]
+    noises = sorted({r["noise"] for r in ok if r["noise"] != "clear"}) or ["clear"]
+    clear = [r for r in ok if r["noise"] == "clear"]
+    lines = [("detector, no filters", lambda r: r["driver"] == "detector" and r["filters"] == "none"),
+             ("detector, all filters", lambda r: r["driver"] == "detector" and r["filters"] == "shadow+rain_snow+light"),
+             ("oracle", lambda r: r["driver"] == "oracle")]  # fmt: skip
+    fig, axes = plt.subplots(2, len(noises), figsize=(3.2 * len(noises), 5.5), squeeze=False)
+    for col, noise in enumerate(noises):
+        rs = [r for r in ok if r["noise"] == noise] + clear
+        sevs = sorted({r["severity"] for r in rs})
+        for row, (metric, label) in enumerate((("offroad_fraction", "off-road fraction"), ("driving_score", "driving score"))):
+            ax = axes[row][col]
+            for name, pick in lines:
+                stats = [_mean_ci([r[metric] for r in rs if pick(r) and r["severity"] == s]) for s in sevs]
+                if all(not math.isfinite(m) for m, _ in stats):
+                    continue
+                ax.errorbar(sevs, [m for m, _ in stats], yerr=[h if math.isfinite(h) else 0 for _, h in stats], marker="o", capsize=3, label=name)
+            ax.set_xlabel("severity")
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+            if row == 0:
+                ax.set_title(noise)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def build_report(directory: str | os.PathLike) -> dict[str, Path]:
+    """Rebuild summary.csv, summary.md, error_rates.png and safety.png in ``directory``."""
+    from simroad.experiments.ablate import ResultStore
+
+    d = Path(directory)
+    store = ResultStore(d)
+    if not store.path.exists():
+        raise SimroadError(f"dir: no results.jsonl in {str(d)!r}; run 'simroad ablate --out {d}' first.")
+    records = store.records()
+    if not records:
+        raise SimroadError(f"dir: {str(store.path)!r} holds no finished episode yet.")
+    rows = summarise(records)
+    out = {"summary.csv": d / "summary.csv", "summary.md": d / "summary.md", "error_rates.png": d / "error_rates.png", "safety.png": d / "safety.png"}
+    _write_csv(rows, out["summary.csv"])
+    _write_md(rows, out["summary.md"])
+    _error_rates_figure(records, out["error_rates.png"])
+    _safety_figure(records, out["safety.png"])
+    (d / "summary.json").write_text(json.dumps(rows, indent=1, default=str))
+    return out

@@ -1,0 +1,88 @@
+"""Episode videos: what a person looks at to understand a failure.
+
+Each frame is the (noisy) camera view with the predicted road mask tinted green,
+the ground-truth road outline in yellow, and a bird's-eye inset (top right) of the
+world with the ego's trajectory so far. ``.mp4`` is written with imageio's ffmpeg
+plugin, ``.gif`` with Pillow.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from simroad._validation import SimroadError
+
+__all__ = ["EpisodeVideo", "overlay_frame"]
+
+
+def overlay_frame(obs: np.ndarray, gt: np.ndarray, pred: np.ndarray | None) -> np.ndarray:
+    """The view with the predicted mask tinted green and the GT outline in yellow."""
+    out = obs.copy()
+    if pred is not None:
+        tint = out[pred].astype(np.float32)
+        out[pred] = (0.6 * tint + 0.4 * np.array([40, 220, 60], np.float32)).astype(np.uint8)
+    contours, _ = cv2.findContours(gt.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_SIMPLE)
+    cv2.drawContours(out, contours, -1, (255, 230, 0), 1)
+    return out
+
+
+class EpisodeVideo:
+    """Collect annotated frames of an episode and write them to ``path``."""
+
+    def __init__(self, path: str | os.PathLike, env, *, fps: int = 5) -> None:
+        self.path = Path(path)
+        if self.path.suffix.lower() not in (".mp4", ".gif"):
+            raise SimroadError(f"video: expected a path ending in .mp4 or .gif, got {str(self.path)!r}.")
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise SimroadError(f"video: cannot create {str(self.path.parent)!r} ({exc.strerror}).") from None
+        self.env = env
+        self.fps = fps
+        self.frames: list[np.ndarray] = []
+        self.trail: list[np.ndarray] = []
+
+    def add(self, obs: np.ndarray, info: dict, pred: np.ndarray | None) -> None:
+        frame = overlay_frame(obs, info["road_mask"], pred)
+        self.trail.append(np.asarray(info["pose"][:2], dtype=float))
+        h = frame.shape[0]
+        size = (max(32, h * 2 // 5), max(32, h * 3 // 5))
+        mpp = 0.5
+        bev = self.env.render_bev(size=size, metres_per_px=mpp)
+        self._draw_trail(bev, info["pose"], mpp, behind_m=15.0)
+        cv2.rectangle(bev, (0, 0), (size[0] - 1, size[1] - 1), (255, 255, 255), 1)
+        frame[: size[1], -size[0] :] = bev
+        self.frames.append(frame)
+
+    def _draw_trail(self, bev: np.ndarray, pose: np.ndarray, mpp: float, behind_m: float) -> None:
+        if len(self.trail) < 2:
+            return
+        W, H = bev.shape[1], bev.shape[0]
+        x, y, hd = (float(v) for v in pose)
+        fwd = np.array([math.cos(hd), math.sin(hd)])
+        right = np.array([-math.sin(hd), math.cos(hd)])
+        d = np.asarray(self.trail) - (x, y)
+        cols = W / 2.0 + (d @ right) / mpp
+        rows = H - behind_m / mpp - (d @ fwd) / mpp
+        pts = np.round(np.column_stack([cols, rows])).astype(np.int32)
+        cv2.polylines(bev, [pts], False, (255, 60, 60), 1)
+
+    def close(self) -> Path:
+        """Write the file and return its path."""
+        import imageio.v2 as imageio
+
+        if not self.frames:
+            raise SimroadError("video: the episode produced no frames.")
+        try:
+            if self.path.suffix.lower() == ".gif":
+                imageio.mimsave(self.path, self.frames, duration=1.0 / self.fps, loop=0)
+            else:
+                imageio.mimsave(self.path, self.frames, fps=self.fps, macro_block_size=1)
+        except (OSError, ValueError, RuntimeError) as exc:
+            raise SimroadError(f"video: could not write {str(self.path)!r}: {exc}") from None
+        return self.path
