@@ -16,7 +16,8 @@ Severity -> physical parameters (s in [0, 1]; 0 leaves the frame unchanged)
 noise    parameters
 =======  ====================================================================
 rain     rate 100·s² mm/h (Marshall–Palmer drops 0.5–7 mm, Gunn–Kinzer speeds),
-         wind 8·s m/s, wetness √s, exposure 1/500 s; haze from the drops
+         wind 8·s m/s, soaked min(1, 2s), water film 0.6·s², exposure 1/500 s;
+         haze from the drops
 snow     3000·s^1.5 flakes/m³ of 1–5 mm at 0.5–2 m/s, wind 6·s m/s, flutter
          0.4 m/s, exposure 1/500 s; settled cover 0.9·clip(2s − 1, 0, 1) on
          roadside and shoulders; haze from the flakes

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-__all__ = ["RoadIndex", "Shadows", "cell_occluders", "prism_shadows", "sphere_shadows"]
+__all__ = ["Occluders", "RoadIndex", "Shadows", "place_cell", "prism_shadows", "sphere_shadows"]
 
 N_VERT = 16
 KINDS = ("tree", "pole", "building")
@@ -167,17 +167,47 @@ class RoadIndex:
         return c[i].copy(), math.atan2(d[1], d[0])
 
 
-def cell_occluders(
+@dataclass
+class Occluders:
+    """The occluders of one cell (world metres).
+
+    Attributes
+    ----------
+    kinds : list of str
+        Kind of each prism: "tree" (trunk), "pole", "building" or "overpass".
+    footprints : list of ndarray (4, 2)
+        Prism footprints.
+    z0, z1 : ndarray
+        Bottom and top height of each prism, m.
+    canopy_centre : ndarray (T, 2)
+        Trees' canopy centres; ``canopy_height`` (T,) and ``canopy_radius`` (T,), m.
+    """
+
+    kinds: list
+    footprints: list
+    z0: np.ndarray
+    z1: np.ndarray
+    canopy_centre: np.ndarray
+    canopy_height: np.ndarray
+    canopy_radius: np.ndarray
+
+    def shadows(self, sun: tuple[float, float], sun_diam_rad: float) -> Shadows:
+        """Their shadows for the sun ``(azimuth, elevation)`` in rad."""
+        parts = [prism_shadows(self.footprints, self.z0, self.z1, sun, sun_diam_rad)]
+        if len(self.canopy_radius):
+            parts.append(sphere_shadows(self.canopy_centre, self.canopy_height, self.canopy_radius, sun, sun_diam_rad))
+        return Shadows.concat(parts)
+
+
+def place_cell(
     rng: np.random.Generator,
     box: tuple[float, float, float, float],
     road: RoadIndex,
     *,
     per_100m: float,
     overpass_per_km: float,
-    sun: tuple[float, float],
-    sun_diam_rad: float,
-) -> Shadows:
-    """Place one cell's occluders and return their shadows.
+) -> Occluders:
+    """Place one cell's occluders.
 
     Parameters
     ----------
@@ -191,47 +221,42 @@ def cell_occluders(
         Overpasses per km of road.
     """
     x0, y0, x1, y1 = box
-    area = (x1 - x0) * (y1 - y0)
-    lam = per_100m / (100.0 * 2.0 * _MEAN_BAND) * area
-    n = int(rng.poisson(lam))
+    n = int(rng.poisson(per_100m / (100.0 * 2.0 * _MEAN_BAND) * (x1 - x0) * (y1 - y0)))
     pts = np.column_stack([rng.uniform(x0, x1, n), rng.uniform(y0, y1, n)])
     kind = rng.choice(len(KINDS), size=n, p=KIND_P)
     dims = rng.random((n, 4))
     dist = road.distance(pts, reach=20.0)
-    spheres, prisms = ([], [], []), ([], [], [])
+    kinds, fps, z0, z1, trees = [], [], [], [], []
     for k in range(n):
-        name = KINDS[kind[k]]
+        name, u = KINDS[kind[k]], dims[k]
         lo, hi = KIND_BAND[name]
-        u = dims[k]
         if name == "building":
             w, l, h, yaw = 6 + 10 * u[0], 6 + 10 * u[1], 4 + 10 * u[2], math.pi * u[3]
-            lo += 0.5 * math.hypot(w, l)
-            hi += 0.5 * math.hypot(w, l)
-            if lo <= dist[k] <= hi:
-                prisms[0].append(_rect(pts[k], yaw, l, w))
-                prisms[1].append(0.0)
-                prisms[2].append(h)
-        elif lo <= dist[k] <= hi:
-            if name == "tree":
-                trunk, r, tr = 1.5 + 2.0 * u[0], 1.5 + 2.0 * u[1], 0.15 + 0.15 * u[2]
-                spheres[0].append(pts[k])
-                spheres[1].append(trunk + 0.8 * r)
-                spheres[2].append(r)
-                height, rad = trunk + 0.3 * r, tr
-            else:
-                height, rad = 6.0 + 5.0 * u[0], 0.10 + 0.08 * u[1]
-            prisms[0].append(_rect(pts[k], 0.0, 2 * rad, 2 * rad))
-            prisms[1].append(0.0)
-            prisms[2].append(height)
+            half = 0.5 * math.hypot(w, l)
+            if lo + half <= dist[k] <= hi + half:
+                kinds.append(name), fps.append(_rect(pts[k], yaw, l, w)), z0.append(0.0), z1.append(h)
+            continue
+        if not lo <= dist[k] <= hi:
+            continue
+        if name == "tree":
+            trunk, r, rad = 1.5 + 2.0 * u[0], 1.5 + 2.0 * u[1], 0.15 + 0.15 * u[2]
+            trees.append((pts[k], trunk + 0.8 * r, r))
+            height = trunk + 0.3 * r
+        else:
+            height, rad = 6.0 + 5.0 * u[0], 0.10 + 0.08 * u[1]
+        kinds.append(name), fps.append(_rect(pts[k], 0.0, 2 * rad, 2 * rad)), z0.append(0.0), z1.append(height)
     if overpass_per_km > 0 and rng.random() < min(1.0, overpass_per_km * (x1 - x0) / 1000.0):
         hit = road.crossing_in(box, rng)
         if hit is not None:
-            centre, heading = hit
             depth, bottom = 8.0 + 6.0 * rng.random(), 5.0 + 1.5 * rng.random()
-            prisms[0].append(_rect(centre, heading, depth, 36.0))
-            prisms[1].append(bottom)
-            prisms[2].append(bottom + 1.2)
-    parts = [prism_shadows(prisms[0], np.array(prisms[1]), np.array(prisms[2]), sun, sun_diam_rad)]
-    if spheres[0]:
-        parts.append(sphere_shadows(np.array(spheres[0]), np.array(spheres[1]), np.array(spheres[2]), sun, sun_diam_rad))
-    return Shadows.concat(parts)
+            kinds.append("overpass"), fps.append(_rect(hit[0], hit[1], depth, 36.0))
+            z0.append(bottom), z1.append(bottom + 1.2)
+    return Occluders(
+        kinds,
+        fps,
+        np.array(z0, dtype=float),
+        np.array(z1, dtype=float),
+        np.array([t[0] for t in trees]).reshape(-1, 2),
+        np.array([t[1] for t in trees], dtype=float),
+        np.array([t[2] for t in trees], dtype=float),
+    )

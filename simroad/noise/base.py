@@ -245,8 +245,8 @@ class FrameState:
     sun_optical_depth : float
         Extinction optical depth of the atmosphere along a vertical path to the sun
         (set by fog); the sun's irradiance is scaled by ``exp(-od / sin(elevation))``.
-    wetness : float
-        Fraction of the road covered by a water film (set by rain).
+    water_film : float
+        Fraction of the road under a smooth water film (set by rain).
     """
 
     lin: np.ndarray
@@ -257,7 +257,7 @@ class FrameState:
     ctx: NoiseContext
     sun_visibility: np.ndarray | None = None
     sun_optical_depth: float = 0.0
-    wetness: float = 0.0
+    water_film: float = 0.0
     _cache: dict = field(default_factory=dict)
 
     @property

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import warnings
 
 import cv2
 import numpy as np
@@ -41,7 +42,9 @@ def gallery_frame(seed: int = 0):
 
     from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, VehicleBox, WorldRaster
 
-    env = gym.make("racetrack-v0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # racetrack-v0 "is out of date"
+        env = gym.make("racetrack-v0")
     try:
         env.reset(seed=seed)
         rng = np.random.default_rng(seed)

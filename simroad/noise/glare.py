@@ -10,7 +10,8 @@ Physics
   ``L_s = E_sun·F·D·G / (4·cos θ_v)``. In the frame's units (1 = white Lambertian
   under the scene's illumination E_ref = E_sun·sin e + E_sky) this is
   ``π·(E_sun/E_ref)·F·D·G/(4·cos θ_v)``. Dry asphalt is rough (m = 0.35, F0 = 0.04);
-  the ``wetness`` fraction is a water film (m = 0.06, F0 = 0.02) that mirrors the sun.
+  the ``wetness`` fraction is under a smooth water film (m = 0.06, F0 = 0.02) that
+  mirrors the sun (rain's ``water_film`` adds to it when composed).
   The lobe peaks where the view ray meets the ground at the sun's elevation, so a low
   sun ahead lights the road in front of the car; it depends on the camera heading
   against the sun's azimuth and moves as the car turns.
@@ -30,7 +31,7 @@ Severity mapping (:meth:`GlareParams.from_severity`), s in (0, 1]::
 
     sun_elevation_deg = 45 − 40 · s          # 5° above the horizon at s = 1
     sun_azimuth_deg   = 0                    # world +x: ahead on highway-env's straights
-    wetness           = 0.5 · s              # damp road
+    wetness           = 0.5 · s              # water film on the road after a shower
     veil_coeff        = 0.5 + 2.5 · s        # clean lens … dirty windscreen
     sun_sky_ratio     = 6 (E_sun/E_sky), roughness 0.35, bloom 1.5°
 
@@ -135,7 +136,7 @@ class GlareParams:
     roughness : float
         Beckmann rms slope of the dry road, in [0.02, 1].
     wetness : float
-        Fraction of the road under a water film, in [0, 1].
+        Fraction of the road under a smooth water film, in [0, 1].
     veil_coeff : float
         Stray-light coefficient k of the lens and windscreen (deg², Stiles–Holladay
         units; 10 for the human eye), in [0, 50].
@@ -219,7 +220,7 @@ class GlareModel(NoiseModel):
         rows = state.ground_rows
         half = slice(rows.start // 2, (rows.stop + 1) // 2)
         rx, ry, rz = (plane[half] for plane in geom.ray_planes_half)
-        wet = max(p.wetness, state.wetness)
+        wet = max(p.wetness, state.water_film)
         lobe = np.float32(1.0 - wet) * specular_lobe(rx, ry, rz, sun, p.roughness, 0.04)
         if wet > 0:
             lobe += np.float32(wet) * specular_lobe(rx, ry, rz, sun, WATER_ROUGHNESS, 0.02)

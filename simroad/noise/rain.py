@@ -14,22 +14,27 @@ Physics
   (eq. 19, see :mod:`simroad.noise._particles` for β). A drop that covers a pixel
   has ``β = τ/T`` with ``τ ≈ 4a/v``: at most ≈ 1.5 ms (a = 3.5 mm), so β ≤ 0.045 at
   T = 1/30 s (:func:`exposure_beta`). The drop's radiance is that of its wide-angle
-  view of the environment (Garg & Nayar): ``I_E = 0.94·mean scene + 0.06·sky``.
+  view of the environment (Garg & Nayar): ``I_E = 0.94·mean scene luminance +
+  0.06·sky luminance``, grey (a drop averages the colours of a ~165° view).
 * **Haze** — the drops' extinction in the geometric-optics limit (efficiency 2):
   ``β_ext = 2·∫πa²N(D)dD = π·N0/Λ³`` (≈ 1.6·10⁻³ /m at 10 mm/h, visibility 2.5 km;
   6.8·10⁻³ /m at 100 mm/h, 580 m), applied with Koschmieder's law; ``haze_scale``
   multiplies it (e.g. > 1 for spray from traffic).
 * **Wet road** — a water film darkens a rough surface of albedo A to
   ``A_w = (1 − R_e)(1 − R_i)·A / (1 − R_i·A)`` (Lekner & Dorf 1988; R_e = 0.066,
-  ``R_i = 1 − (1 − R_e)/n²`` for water, n = 1.333), and mirrors the environment with
-  the Fresnel reflectance of the viewing angle (grazing far road: 0.3–0.6), blurred
-  vertically by the film's ripples.
+  ``R_i = 1 − (1 − R_e)/n²`` for water, n = 1.333), and mirrors the environment (seen
+  through the rain) where standing water forms a smooth film (``water_film``), with
+  the Fresnel reflectance of the viewing angle, blurred vertically by the film's
+  ripples. From a camera 1.3 m up the road is seen at 63–90° incidence (Fresnel
+  0.08–1), so a soaked road is darker near the car and shines with the sky farther
+  away.
 
 Severity mapping (:meth:`RainParams.from_severity`), s in [0, 1]::
 
     rate_mm_h   = 100 · s²        # 6 mm/h (s=0.25, moderate) … 25 (0.5, heavy) … 100 (1, violent)
     wind_m_s    = 8 · s           # blowing towards world +y (across highway-env's roads)
-    wetness     = √s              # fraction of the road under a water film
+    wetness     = min(1, 2·s)     # soaked fraction of the surface (darkening)
+    water_film  = 0.6 · s²        # standing water (mirror): 0.04 at 6 mm/h, 0.15 at 25, 0.6 at 100
     exposure_s  = 1/500           # fixed: a dashcam's daylight exposure (f/1.8, EV 11)
     haze_scale  = 1               # drops only
 
@@ -65,6 +70,7 @@ __all__ = [
 ]
 
 MP_N0 = 8000.0  # m^-3 mm^-1
+LUMA = np.array([0.2126, 0.7152, 0.0722])  # linear-light luminance weights (Rec. 709)
 D_RANGE_MM = (0.5, 7.0)
 WATER_N = 1.333
 _R_E = 0.066
@@ -122,8 +128,14 @@ def rain_extinction(rate_mm_h: float) -> float:
 
 
 def drop_radiance(scene_mean: np.ndarray, ambient: np.ndarray) -> np.ndarray:
-    """Radiance of a drop, ``0.94·scene_mean + 0.06·ambient`` (linear, per channel)."""
-    return 0.94 * np.asarray(scene_mean) + 0.06 * np.asarray(ambient)
+    """Radiance of a drop, ``0.94·Y(scene mean) + 0.06·Y(ambient)``, grey (3,).
+
+    A drop refracts a ~165° view of its surroundings (Garg & Nayar), which averages
+    their colours away: drops are achromatic. Y is the linear luminance
+    ``0.2126 R + 0.7152 G + 0.0722 B``.
+    """
+    y = 0.94 * float(np.dot(LUMA, scene_mean)) + 0.06 * float(np.dot(LUMA, ambient))
+    return np.full(3, y, dtype=np.float32)
 
 
 def wet_albedo(albedo: np.ndarray, wetness: np.ndarray | float) -> np.ndarray:
@@ -155,7 +167,10 @@ class RainParams:
     exposure_s : float
         Camera exposure time T in s, in (0, 0.1].
     wetness : float
-        Fraction of the road under a water film, in [0, 1].
+        Fraction of the ground whose pores are soaked (darkens it), in [0, 1].
+    water_film : float
+        Fraction of the road under a smooth film of standing water that mirrors the
+        environment (and the sun, for the glare model), in [0, 1].
     haze_scale : float
         Multiplier of the drops' extinction, in [0, 100].
     airlight : float
@@ -168,7 +183,8 @@ class RainParams:
     wind_m_s: float = 4.0
     wind_dir_deg: float = 90.0
     exposure_s: float = 1.0 / 500.0
-    wetness: float = 0.7
+    wetness: float = 1.0
+    water_film: float = 0.15
     haze_scale: float = 1.0
     airlight: float = 0.45
     max_particles: int = 6000
@@ -179,6 +195,7 @@ class RainParams:
             ("wind_m_s", 0.0, 40.0, "m/s"),
             ("wind_dir_deg", -360.0, 360.0, "degrees"),
             ("wetness", 0.0, 1.0, ""),
+            ("water_film", 0.0, 1.0, ""),
             ("haze_scale", 0.0, 100.0, ""),
             ("airlight", 0.0, 1.0, ""),
         ):
@@ -192,11 +209,11 @@ class RainParams:
     def from_severity(cls, severity: float) -> RainParams:
         """Documented severity mapping (see the module docstring)."""
         s = check_in_range("severity", severity, 0.0, 1.0)
-        return cls(rate_mm_h=100.0 * s * s, wind_m_s=8.0 * s, wetness=math.sqrt(s))
+        return cls(rate_mm_h=100.0 * s * s, wind_m_s=8.0 * s, wetness=min(1.0, 2.0 * s), water_film=0.6 * s * s)
 
     @property
     def is_identity(self) -> bool:
-        return self.rate_mm_h == 0.0 and self.wetness == 0.0
+        return self.rate_mm_h == 0.0 and self.wetness == 0.0 and self.water_film == 0.0
 
 
 @lru_cache(maxsize=16)
@@ -228,7 +245,7 @@ class RainModel(NoiseModel):
         self._field_config = None
 
     def prepare(self, state: FrameState) -> None:
-        state.wetness = max(state.wetness, self.params.wetness)
+        state.water_film = max(state.water_film, self.params.water_film)
 
     def material(self, state: FrameState) -> None:
         w = self.params.wetness
@@ -243,13 +260,17 @@ class RainModel(NoiseModel):
         lin += wet
 
     def reflection(self, state: FrameState) -> None:
-        w = self.params.wetness
+        w = self.params.water_film
         if w == 0.0:
             return
         geom = view_geometry(state.camera)
         r = state.ground_rows
         m1, m2 = _mirror_maps(geom, r)
         refl = cv2.remap(state.lin, m1, m2, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+        beta = self.params.haze_scale * rain_extinction(self.params.rate_mm_h)
+        if beta > 0.0:  # the mirrored ray crosses the rain too: it sees the rainy sky
+            far = cv2.remap(state.depth, m1, m2, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+            koschmieder(refl, far, beta, self.params.airlight)
         refl = cv2.blur(refl, (3, 9))
         k = material_weights(state, _MIRROR, 1.0)[r] * geom.fresnel_water[r] * np.float32(w)
         refl *= gray3(k)

@@ -49,7 +49,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
 from simroad.noise._geometry import ego_to_world, view_geometry
-from simroad.noise._occluders import RoadIndex, Shadows, cell_occluders, prism_shadows
+from simroad.noise._occluders import Occluders, RoadIndex, Shadows, place_cell, prism_shadows
 from simroad.noise.base import FrameState, NoiseModel, Params
 
 __all__ = ["ShadowModel", "ShadowParams", "rasterize_shadows", "shadow_factor"]
@@ -231,6 +231,14 @@ class ShadowModel(NoiseModel):
         self._cells.clear()
         self._gathered = (None, Shadows.empty())
 
+    def occluders(self, i: int, j: int) -> Occluders:
+        """The occluders of world cell (i, j): a pure function of the episode seed and
+        the cell index (not of the order cells are visited)."""
+        p = self.params
+        rng = np.random.default_rng([self._seed, i + 2**31, j + 2**31])
+        box = (i * p.cell_m, j * p.cell_m, (i + 1) * p.cell_m, (j + 1) * p.cell_m)
+        return place_cell(rng, box, self._road, per_100m=p.occluders_per_100m, overpass_per_km=p.overpasses_per_km)
+
     def cell(self, i: int, j: int) -> Shadows:
         """Shadows cast by the occluders of world cell (i, j) (cached)."""
         key = (i, j)
@@ -238,18 +246,7 @@ class ShadowModel(NoiseModel):
         if hit is not None:
             self._cells.move_to_end(key)
             return hit
-        p = self.params
-        rng = np.random.default_rng([self._seed, i + 2**31, j + 2**31])
-        box = (i * p.cell_m, j * p.cell_m, (i + 1) * p.cell_m, (j + 1) * p.cell_m)
-        out = cell_occluders(
-            rng,
-            box,
-            self._road,
-            per_100m=p.occluders_per_100m,
-            overpass_per_km=p.overpasses_per_km,
-            sun=self.sun,
-            sun_diam_rad=math.radians(p.sun_diameter_deg),
-        )
+        out = self.occluders(i, j).shadows(self.sun, math.radians(self.params.sun_diameter_deg))
         self._cells[key] = out
         if len(self._cells) > 4096:
             self._cells.popitem(last=False)

@@ -1,0 +1,47 @@
+"""Fixtures of the weather tests: one rendered racetrack frame shared by all tests."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from simroad.camera import CameraRenderer, Frame, PinholeCamera, WorldRaster
+from simroad.noise import NoiseContext
+from simroad.noise.gallery import gallery_frame
+
+
+@dataclass
+class Scene:
+    frame: Frame
+    camera: PinholeCamera
+    world: WorldRaster
+    pose: tuple[float, float, float]
+
+    def ctx(self, **kw) -> NoiseContext:
+        """A context for the frame (re-setting the camera to the frame's pose)."""
+        self.camera.set_pose(*self.pose)
+        base = dict(
+            camera=self.camera,
+            depth=self.frame.depth,
+            material=self.frame.material,
+            vehicles=self.frame.vehicles,
+            ego_speed=15.0,
+        )
+        base.update(kw)
+        return NoiseContext(**base)
+
+    def renderer(self) -> tuple[CameraRenderer, PinholeCamera]:
+        """A fresh camera and renderer over the same world (for tests that move)."""
+        cam = PinholeCamera(self.camera.config)
+        return CameraRenderer(cam, self.world, np.random.default_rng(0)), cam
+
+
+@pytest.fixture(scope="session")
+def scene() -> Scene:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        frame, cam, world = gallery_frame(seed=3)
+    return Scene(frame, cam, world, cam.pose)

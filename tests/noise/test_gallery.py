@@ -1,0 +1,22 @@
+"""The README gallery renders and stays small."""
+
+from __future__ import annotations
+
+import pytest
+from PIL import Image
+
+from simroad import SimroadError
+from simroad.noise.gallery import GALLERY_NOISES, GALLERY_SEVERITIES, render_gallery
+
+
+def test_gallery_is_one_small_png_with_a_row_per_noise(tmp_path):
+    path = render_gallery(tmp_path / "sub" / "weather.png", seed=0)
+    assert path.exists() and path.stat().st_size < 400_000
+    with Image.open(path) as img:
+        assert img.format == "PNG"
+        assert img.size == (320 * (1 + len(GALLERY_SEVERITIES)), 180 * len(GALLERY_NOISES))
+
+
+def test_gallery_wants_a_png_path(tmp_path):
+    with pytest.raises(SimroadError, match=r"path: expected a \.png"):
+        render_gallery(tmp_path / "weather.jpg")

@@ -1,0 +1,93 @@
+"""Invariants every weather model and composition must keep, over one table."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simroad import SimroadError
+from simroad.noise import MASK_THRESHOLD, MODELS, NOISE_NAMES, apply_noise, change_mask, make_weather
+
+SINGLE = [n for n in NOISE_NAMES if n != "clear"]
+SPECS = SINGLE + ["rain+glare", "snow+shadow", "shadow+glare+fog", "rain+snow+shadow+glare+fog"]
+
+
+def _run(spec, scene, *, severity=0.7, seed=7, frames=2, image=None, **ctx_kw):
+    weather = make_weather(spec, severity=severity)
+    weather.reset(np.random.default_rng(seed), world=scene.world)
+    image = scene.frame.rgb if image is None else image
+    out = []
+    for k in range(frames):
+        out.append(weather.apply(image, scene.ctx(time_s=k / 15.0, **ctx_kw)))
+    return out
+
+
+@pytest.mark.parametrize("spec", SPECS)
+def test_same_seed_gives_identical_frames_and_masks(spec, scene):
+    a, b = _run(spec, scene), _run(spec, scene)
+    for (img_a, masks_a), (img_b, masks_b) in zip(a, b):
+        np.testing.assert_array_equal(img_a, img_b)
+        assert masks_a.keys() == masks_b.keys()
+        for name in masks_a:
+            np.testing.assert_array_equal(masks_a[name], masks_b[name])
+
+
+@pytest.mark.parametrize("spec", ["rain", "snow", "shadow"])
+def test_another_seed_gives_another_frame(spec, scene):
+    (a, _), = _run(spec, scene, seed=1, frames=1)
+    (b, _), = _run(spec, scene, seed=2, frames=1)
+    assert not np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("spec", SPECS + ["clear"])
+def test_severity_zero_leaves_the_frame_bit_identical(spec, scene):
+    for out, masks in _run(spec, scene, severity=0.0):
+        np.testing.assert_array_equal(out, scene.frame.rgb)
+        assert out is not scene.frame.rgb
+        assert all(not m.any() for m in masks.values())
+
+
+@pytest.mark.parametrize("spec", SPECS)
+def test_inputs_are_never_mutated(spec, scene):
+    before = [a.copy() for a in (scene.frame.rgb, scene.frame.depth, scene.frame.material)]
+    _run(spec, scene)
+    for b, a in zip(before, (scene.frame.rgb, scene.frame.depth, scene.frame.material)):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("spec", SPECS)
+@pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])
+def test_shape_and_dtype_are_kept(spec, dtype, scene):
+    img = scene.frame.rgb if dtype == np.uint8 else (scene.frame.rgb / 255.0).astype(dtype)
+    (out, masks), = _run(spec, scene, image=img, frames=1)
+    assert out.shape == img.shape and out.dtype == img.dtype
+    if dtype != np.uint8:
+        assert 0.0 <= out.min() and out.max() <= 1.0
+    assert set(masks) == set(spec.split("+"))
+    for m in masks.values():
+        assert m.dtype == bool and m.shape == img.shape[:2]
+
+
+@pytest.mark.parametrize("spec", SINGLE)
+def test_mask_is_where_the_frame_changed_by_the_threshold(spec, scene):
+    (out, masks), = _run(spec, scene, frames=1)
+    np.testing.assert_array_equal(masks[spec], change_mask(scene.frame.rgb, out))
+    diff = np.abs(out.astype(int) - scene.frame.rgb.astype(int)).max(axis=2)
+    assert masks[spec].any()
+    assert (diff[~masks[spec]] < MASK_THRESHOLD).all()
+
+
+@pytest.mark.parametrize("spec", SINGLE)
+def test_models_apply_to_a_bare_image_with_the_flat_ground_default(spec):
+    rng = np.random.default_rng(0)
+    img = rng.integers(40, 200, (120, 200, 3), dtype=np.uint8)
+    out, masks = apply_noise(img, spec, severity=1.0, rng=3)
+    assert out.shape == img.shape and out.dtype == np.uint8
+    assert masks[spec].any()
+
+
+@pytest.mark.parametrize("name", SINGLE)
+def test_apply_before_reset_is_a_clear_error(name, scene):
+    model = MODELS[name].from_severity(0.5)
+    with pytest.raises(SimroadError, match="reset"):
+        model.apply(scene.frame.rgb, scene.ctx())
