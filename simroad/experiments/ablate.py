@@ -20,7 +20,7 @@ import json
 import math
 import os
 import traceback
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict
 from pathlib import Path
@@ -125,23 +125,23 @@ def _atomic_write(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _local(specs: list[EpisodeSpec], workers: int) -> Iterator[dict]:
+def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterator[dict]:
     if workers == 1:
         for spec in specs:
-            yield run_cell(spec)
+            yield cell_fn(spec)
         return
     with ProcessPoolExecutor(max_workers=workers) as pool:
-        pending = {pool.submit(run_cell, s) for s in specs[: 2 * workers]}
+        pending = {pool.submit(cell_fn, s) for s in specs[: 2 * workers]}
         queue = list(specs[2 * workers :])
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 yield fut.result()
                 if queue:
-                    pending.add(pool.submit(run_cell, queue.pop(0)))
+                    pending.add(pool.submit(cell_fn, queue.pop(0)))
 
 
-def _ray(specs: list[EpisodeSpec], workers: int, address: str | None) -> Iterator[dict]:
+def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: Callable) -> Iterator[dict]:
     try:
         import ray
     except ImportError:
@@ -151,7 +151,7 @@ def _ray(specs: list[EpisodeSpec], workers: int, address: str | None) -> Iterato
         ray.init(address=address, num_cpus=None if address else workers, include_dashboard=False, log_to_driver=False)
         started = True
     try:
-        remote = ray.remote(num_cpus=1)(run_cell)
+        remote = ray.remote(num_cpus=1)(cell_fn)
         pending = [remote.remote(s) for s in specs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
@@ -171,8 +171,13 @@ def run_ablation(
     ray_address: str | None = None,
     fresh: bool = False,
     progress: bool = True,
+    cell_fn: Callable[[EpisodeSpec], dict] = run_cell,
 ) -> list[dict]:
-    """Run every cell of ``grid`` not yet in ``out/results.jsonl``; return all records."""
+    """Run every cell of ``grid`` not yet in ``out/results.jsonl``; return all records.
+
+    ``cell_fn`` runs one cell (default :func:`run_cell`); it must be a picklable
+    top-level function.
+    """
     check_choice("backend", backend, BACKENDS)
     workers = check_int_in_range("workers", workers if workers is not None else (os.cpu_count() or 1), 1, 4096)
     specs = grid.specs()
@@ -184,7 +189,7 @@ def run_ablation(
     from tqdm import tqdm
 
     bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress, unit="episode", desc="ablate")
-    runner = _local(todo, workers) if backend == "local" else _ray(todo, workers, ray_address)
+    runner = _local(todo, workers, cell_fn) if backend == "local" else _ray(todo, workers, ray_address, cell_fn)
     for record in runner:
         store.append(record)
         bar.update(1)

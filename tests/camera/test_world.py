@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from highway_env.road.lane import LineType, StraightLane
+from highway_env.road.lane import LineType, PolyLaneFixedWidth, SineLane, StraightLane
 from highway_env.road.road import RoadNetwork
 
 from simroad.camera import ASPHALT, MARKING, ROADSIDE, SHOULDER, WorldRaster
@@ -66,3 +66,38 @@ def test_texture_wraps_seamlessly_between_tiles(rng):
     seam = np.abs(g[:, T] - g[:, T - 1]).mean()
     inside = np.abs(g[:, T // 2] - g[:, T // 2 - 1]).mean()
     assert seam < 1.5 * inside + 1.0
+
+
+def _sdf_agrees_with_lane(lane, rng, tol_m):
+    """Texels of the world raster are road exactly where highway-env says on-lane,
+    except within ``tol_m`` of the lane edge."""
+    net = RoadNetwork()
+    net.add_lane("a", "b", lane)
+    w = WorldRaster(net, rng, texel_m=0.1)
+    x0, y0, x1, y1 = w.bounds()
+    win = w.window(x0, y0, x1, y1)
+    pts = rng.uniform([x0, y0], [x1, y1], size=(3000, 2))
+    cols = ((pts[:, 0] - win.x0) / 0.1).astype(int)
+    rows = ((pts[:, 1] - win.y0) / 0.1).astype(int)
+    centres = np.column_stack([win.x0 + (cols + 0.5) * 0.1, win.y0 + (rows + 0.5) * 0.1])
+    road = win.material[rows, cols] >= ASPHALT
+    disagree = 0
+    for p, r in zip(centres, road):
+        s, lat = lane.local_coordinates(p)
+        inside = 0 <= s <= lane.length and abs(lat) <= lane.width_at(s) / 2
+        margin = min(abs(abs(lat) - lane.width_at(s) / 2), abs(s), abs(s - lane.length))
+        if inside != r and margin > tol_m:
+            disagree += 1
+    return disagree
+
+
+def test_sine_lane_is_rasterised_from_its_geometry(rng):
+    lane = SineLane([0, 0], [120, 0], amplitude=4.0, pulsation=2 * np.pi / 60, phase=0.0, width=4.0)
+    assert _sdf_agrees_with_lane(lane, rng, tol_m=0.01) == 0
+
+
+def test_poly_lane_is_rasterised_from_its_outline(rng):
+    xs = np.linspace(0, 100, 21)
+    centre = np.column_stack([xs, 8 * np.sin(xs / 25)])
+    lane = PolyLaneFixedWidth(centre.tolist(), width=4.0)
+    assert _sdf_agrees_with_lane(lane, rng, tol_m=0.15) == 0  # texel-level for PolyLane

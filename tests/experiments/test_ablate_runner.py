@@ -1,0 +1,127 @@
+"""The sweep runner with a stub episode: resumable, crash-safe, one row per cell."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+from simroad import SimroadError
+from simroad.experiments.ablate import ResultStore, run_ablation
+from simroad.experiments.grid import AblationGrid, cell_key, load_grid_file
+
+HERE = Path(__file__).parent
+sys.path.insert(0, str(HERE))
+from stub_cell import stub_cell  # noqa: E402
+
+GRID = AblationGrid(scenarios=("racetrack",), noises=("clear", "rain"), severities=(0.4, 0.8), filters=("none", "all"), seeds=10, steps=5)
+
+
+def _rows(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_grid_cells_count_and_clear_runs_once():
+    specs = GRID.specs()
+    # clear: 1 severity; rain: 2 severities; x 10 seeds x (oracle + 2 filter sets)
+    assert len(specs) == (1 + 2) * 10 * 3
+    assert len({cell_key(s) for s in specs}) == len(specs)
+    assert {s.severity for s in specs if s.noise == "clear"} == {0.0}
+
+
+def test_same_results_with_one_or_two_workers(tmp_path):
+    a = run_ablation(GRID, tmp_path / "a", workers=1, progress=False, cell_fn=stub_cell)
+    b = run_ablation(GRID, tmp_path / "b", workers=2, progress=False, cell_fn=stub_cell)
+    key = lambda rs: {cell_key(r): r["fnr"] for r in rs}  # noqa: E731
+    assert key(a) == key(b) and len(a) == 90
+
+
+def test_rerun_skips_done_cells_and_repairs_a_torn_line(tmp_path):
+    out = tmp_path / "sweep"
+    run_ablation(GRID, out, workers=1, progress=False, cell_fn=stub_cell)
+    path = out / "results.jsonl"
+    lines = path.read_text().splitlines()
+    # Simulate a crash: the last row half-written, one row lost, one duplicated.
+    path.write_text("\n".join(lines[:40] + [lines[10]] + [lines[41][: len(lines[41]) // 2]]))
+    t0 = time.perf_counter()
+    records = run_ablation(GRID, out, workers=1, progress=False, cell_fn=stub_cell)
+    assert time.perf_counter() - t0 < 0.05 * 60  # only ~50 cells rerun, not 90
+    rows = _rows(path)
+    assert len(rows) == 90 == len({cell_key(r) for r in rows}) == len(records)
+
+
+def test_failed_episode_is_recorded_and_the_sweep_goes_on(tmp_path):
+    grid = AblationGrid(scenarios=("racetrack",), noises=("clear",), filters=("none",), seeds=3, seed_start=12, steps=5)
+    records = run_ablation(grid, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    assert len(records) == 6
+    assert sum(1 for r in records if r["error"]) == 1
+
+
+def test_a_directory_with_another_grid_is_refused_unless_fresh(tmp_path):
+    run_ablation(GRID, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    other = AblationGrid(scenarios=("winding",), noises=("clear",), filters=("none",), seeds=2, steps=5)
+    with pytest.raises(SimroadError, match="different grid"):
+        run_ablation(other, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    records = run_ablation(other, tmp_path, workers=1, progress=False, cell_fn=stub_cell, fresh=True)
+    assert len(records) == 4 and len(_rows(tmp_path / "results.jsonl")) == 4
+
+
+def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
+    out = tmp_path / "killed"
+    script = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(HERE)!r})
+        from stub_cell import stub_cell
+        from simroad.experiments.ablate import run_ablation
+        from simroad.experiments.grid import AblationGrid
+        grid = AblationGrid(scenarios=("racetrack",), noises=("clear", "rain"), severities=(0.4, 0.8), filters=("none", "all"), seeds=10, steps=5)
+        run_ablation(grid, {str(out)!r}, workers=2, progress=False, cell_fn=stub_cell)
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", script], start_new_session=True)
+    path = out / "results.jsonl"
+    deadline = time.time() + 60
+    while time.time() < deadline and (not path.exists() or len(path.read_text().splitlines()) < 20):
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)  # the runner and its pool workers
+    proc.wait()
+    n_killed = len(path.read_text().splitlines())
+    assert 20 <= n_killed < 90
+    records = run_ablation(GRID, out, workers=2, progress=False, cell_fn=stub_cell)
+    rows = _rows(path)
+    keys = [cell_key(r) for r in rows]
+    assert len(rows) == 90 and len(set(keys)) == 90 == len(records)
+    assert set(keys) == {cell_key(s) for s in GRID.specs()}
+
+
+def test_store_repair_keeps_valid_rows_only(tmp_path):
+    store = ResultStore(tmp_path)
+    store.append({"scenario": "racetrack", "noise": "clear", "severity": 0.0, "filters": "none", "driver": "oracle", "seed": 1})
+    with open(store.path, "a") as fh:
+        fh.write('{"scenario": "racetr')
+    done = store.repair()
+    assert len(done) == 1 and store.path.read_text().count("\n") == 1
+
+
+def test_config_file_unknown_key_names_key_and_file(tmp_path):
+    cfg = tmp_path / "grid.toml"
+    cfg.write_text('scenarios = ["racetrack"]\nseedz = 3\n')
+    with pytest.raises(SimroadError) as err:
+        load_grid_file(cfg)
+    assert "seedz" in str(err.value) and "grid.toml" in str(err.value) and "Did you mean 'seeds'" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "kw, name",
+    [({"scenarios": "racetrak"}, "scenarios"), ({"noises": "rian"}, "noise"), ({"severities": "1.5"}, "severities"),
+     ({"filters": "shadw"}, "filters"), ({"seeds": 0}, "seeds"), ({"scenarios": ""}, "scenarios")],
+)  # fmt: skip
+def test_invalid_grid_values_are_clear_errors(kw, name):
+    with pytest.raises(SimroadError, match=name):
+        AblationGrid(**kw)
