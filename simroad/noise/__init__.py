@@ -17,10 +17,10 @@ noise    parameters
 =======  ====================================================================
 rain     rate 100·s² mm/h (Marshall–Palmer drops 0.5–7 mm, Gunn–Kinzer speeds),
          wind 8·s m/s, soaked min(1, 2s), water film 0.6·s², exposure 1/500 s;
-         haze from the drops
+         haze from the drops (visibility 1.4 km at s=0.5, 590 m at s=1)
 snow     3000·s^1.5 flakes/m³ of 1–5 mm at 0.5–2 m/s, wind 6·s m/s, flutter
          0.4 m/s, exposure 1/500 s; settled cover 0.9·clip(2s − 1, 0, 1) on
-         roadside and shoulders; haze from the flakes
+         roadside and shoulders; haze (visibility 450 m at s=0.5, 160 m at s=1)
 shadow   20·s roadside occluders per 100 m, 2·s overpasses per km, sun 120°
          azimuth at 60 − 40·s degrees, E_sun/E_sky = (8, 6, 3); vehicle shadows
 glare    sun 0° azimuth (ahead on highway-env's straights) at 45 − 40·s degrees,

@@ -199,6 +199,23 @@ class Occluders:
         return Shadows.concat(parts)
 
 
+def _roadside(name: str, at: np.ndarray, u: np.ndarray, dist: float):
+    """Footprint, height and (trees) canopy of an occluder of kind ``name`` drawn from
+    the uniforms ``u`` at ``at``, or None if ``dist`` from the road does not suit it."""
+    lo, hi = KIND_BAND[name]
+    if name == "building":
+        w, l, h, yaw = 6 + 10 * u[0], 6 + 10 * u[1], 4 + 10 * u[2], math.pi * u[3]
+        half = 0.5 * math.hypot(w, l)
+        return (_rect(at, yaw, l, w), h, None) if lo + half <= dist <= hi + half else None
+    if not lo <= dist <= hi:
+        return None
+    if name == "tree":
+        trunk, r, rad = 1.5 + 2.0 * u[0], 1.5 + 2.0 * u[1], 0.15 + 0.15 * u[2]
+        return _rect(at, 0.0, 2 * rad, 2 * rad), trunk + 0.3 * r, (at, trunk + 0.8 * r, r)
+    height, rad = 6.0 + 5.0 * u[0], 0.10 + 0.08 * u[1]  # pole
+    return _rect(at, 0.0, 2 * rad, 2 * rad), height, None
+
+
 def place_cell(
     rng: np.random.Generator,
     box: tuple[float, float, float, float],
@@ -228,23 +245,11 @@ def place_cell(
     dist = road.distance(pts, reach=20.0)
     kinds, fps, z0, z1, trees = [], [], [], [], []
     for k in range(n):
-        name, u = KINDS[kind[k]], dims[k]
-        lo, hi = KIND_BAND[name]
-        if name == "building":
-            w, l, h, yaw = 6 + 10 * u[0], 6 + 10 * u[1], 4 + 10 * u[2], math.pi * u[3]
-            half = 0.5 * math.hypot(w, l)
-            if lo + half <= dist[k] <= hi + half:
-                kinds.append(name), fps.append(_rect(pts[k], yaw, l, w)), z0.append(0.0), z1.append(h)
-            continue
-        if not lo <= dist[k] <= hi:
-            continue
-        if name == "tree":
-            trunk, r, rad = 1.5 + 2.0 * u[0], 1.5 + 2.0 * u[1], 0.15 + 0.15 * u[2]
-            trees.append((pts[k], trunk + 0.8 * r, r))
-            height = trunk + 0.3 * r
-        else:
-            height, rad = 6.0 + 5.0 * u[0], 0.10 + 0.08 * u[1]
-        kinds.append(name), fps.append(_rect(pts[k], 0.0, 2 * rad, 2 * rad)), z0.append(0.0), z1.append(height)
+        placed = _roadside(KINDS[kind[k]], pts[k], dims[k], dist[k])
+        if placed is not None:
+            kinds.append(KINDS[kind[k]]), fps.append(placed[0]), z0.append(0.0), z1.append(placed[1])
+            if placed[2] is not None:
+                trees.append(placed[2])
     if overpass_per_km > 0 and rng.random() < min(1.0, overpass_per_km * (x1 - x0) / 1000.0):
         hit = road.crossing_in(box, rng)
         if hit is not None:

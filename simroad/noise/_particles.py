@@ -55,6 +55,8 @@ class ParticleField:
     ----------
     pos : ndarray (N, 3)
         Camera-relative ego-frame positions, m.
+    max_speed, max_drift : float
+        Largest fall plus flutter speed and largest flutter amplitude, m/s.
     radius_m : ndarray (N,)
         Particle radius, m.
     fall_m_s : ndarray (N,)
@@ -80,12 +82,9 @@ class ParticleField:
     def __len__(self) -> int:
         return len(self.radius_m)
 
-    @property
-    def max_speed(self) -> float:
-        """Largest fall plus flutter speed, m/s (cached: both are constant)."""
-        if not hasattr(self, "_max_speed"):
-            self._max_speed = float(self.fall_m_s.max() + self.drift_amp.max()) if len(self) else 0.0
-        return self._max_speed
+    def __post_init__(self) -> None:
+        self.max_drift = float(self.drift_amp.max()) if len(self) else 0.0
+        self.max_speed = float(self.fall_m_s.max()) + self.max_drift if len(self) else 0.0
 
 
 def _box_extent(geom: ViewGeometry, x_far: np.ndarray, x_near: float) -> tuple[np.ndarray, np.ndarray]:
@@ -96,6 +95,15 @@ def _box_extent(geom: ViewGeometry, x_far: np.ndarray, x_near: float) -> tuple[n
     lo = np.column_stack([np.full_like(x_far, x_near), -y_half, -z_up])
     size = np.column_stack([x_far - x_near, 2 * y_half, z_up + geom.height_m])
     return lo, size
+
+
+def _within_budget(expected: np.ndarray, budget: int) -> np.ndarray:
+    """Expected counts per size bin, keeping the largest sizes first up to ``budget``
+    particles (the boundary bin partly)."""
+    rev = expected[::-1]
+    before = np.concatenate([[0.0], np.cumsum(rev)[:-1]])
+    kept = np.clip(budget - before, 0.0, rev)
+    return kept[::-1]
 
 
 def sample_field(
@@ -131,9 +139,7 @@ def sample_field(
     mid_mm = 0.5 * (diameter_edges_mm[1:] + diameter_edges_mm[:-1])
     x_far = np.clip(mid_mm * 1e-3 * geom.fx / d_min_px, x_near_m + 0.5, 25.0)
     lo_b, size_b = _box_extent(geom, x_far, x_near_m)
-    expected = density_per_bin * size_b.prod(axis=1)
-    keep = np.cumsum(expected[::-1])[::-1] <= max_particles  # largest bins first
-    expected = np.where(keep, expected, 0.0)
+    expected = _within_budget(density_per_bin * size_b.prod(axis=1), max_particles)
     total = int(round(expected.sum()))
     if total == 0:
         counts = np.zeros(len(mid_mm), dtype=int)
@@ -168,9 +174,8 @@ def particle_velocity(
     vel[:, 0] = wind_ego[0]
     vel[:, 1] = wind_ego[1]
     vel[:, 2] = fall
-    amp = field.drift_amp[sel]
-    if amp.any():
-        s = amp * np.sin(2 * np.pi * field.drift_freq[sel] * time_s + field.drift_phase[sel])
+    if field.max_drift > 0:
+        s = field.drift_amp[sel] * np.sin(2 * np.pi * field.drift_freq[sel] * time_s + field.drift_phase[sel])
         vel[:, :2] += s[:, None] * field.drift_dir[sel]
     return vel
 
@@ -288,7 +293,10 @@ def streaks(
     W, H = geom.config.width, geom.config.height
     m = width / 2.0
     lo_u, hi_u, lo_v, hi_v = -0.5 - m, W - 0.5 + m, -0.5 - m, H - 0.5 + m
-    out = (np.minimum(us, ue) < lo_u) | (np.maximum(us, ue) > hi_u) | (np.minimum(vs, ve) < lo_v) | (np.maximum(vs, ve) > hi_v)
+    # Samples off the image are dropped when splatting; clipping only bounds the
+    # work of streaks much longer than the image.
+    out = np.abs(ue - us) + np.abs(ve - vs) > W + H
+    out &= (np.minimum(us, ue) < lo_u) | (np.maximum(us, ue) > hi_u) | (np.minimum(vs, ve) < lo_v) | (np.maximum(vs, ve) > hi_v)
     if not out.any():
         return us, vs, ue, ve, width, beta
     o = np.flatnonzero(out)

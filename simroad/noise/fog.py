@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
-from simroad.noise.base import FrameState, NoiseModel, Params, gray3, rgb_scalar
+from simroad.noise.base import FrameState, NoiseModel, Params, fast_exp, gray3, rgb_scalar
 
 __all__ = ["FogModel", "FogParams", "extinction_from_visibility", "koschmieder"]
 
@@ -63,7 +63,7 @@ def koschmieder(
         Path length through the medium for pixels of infinite depth, m.
     """
     d = np.minimum(depth, np.float32(sky_path_m))
-    t = cv2.exp(d * np.float32(-beta_ext))
+    t = fast_exp(d * np.float32(-beta_ext))
     a = rgb_scalar(airlight)
     cv2.subtract(lin, a, dst=lin)
     lin *= gray3(t)

@@ -49,7 +49,7 @@ import numpy as np
 from simroad._validation import check_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
 from simroad.noise._geometry import view_geometry
-from simroad.noise.base import FrameState, NoiseModel, Params, material_weights, sun_direction_ego
+from simroad.noise.base import FrameState, NoiseModel, Params, fast_exp, material_weights, sun_direction_ego
 
 __all__ = ["GlareModel", "GlareParams", "air_mass", "specular_lobe", "sun_colour", "veiling_glare"]
 
@@ -99,7 +99,7 @@ def specular_lobe(rx, ry, rz, sun: np.ndarray, roughness: float, f0: float) -> n
     ndl = max(-float(s2), 1e-4)
     m2 = np.float32(roughness * roughness)
     c2 = ndh * ndh
-    d = cv2.exp((c2 - 1.0) / (c2 * m2)) / (np.float32(math.pi) * m2 * c2 * c2)
+    d = fast_exp((c2 - 1.0) / (c2 * m2)) / (np.float32(math.pi) * m2 * c2 * c2)
     f = np.float32(f0) + np.float32(1.0 - f0) * (1.0 - vdh) ** 5
     k = np.float32(roughness * math.sqrt(2.0 / math.pi))
     g = (ndl / (ndl * (1.0 - k) + k)) * (ndv / (ndv * (1.0 - k) + k))
@@ -116,7 +116,7 @@ def veiling_glare(rx, ry, rz, sun: np.ndarray, *, amplitude: float, bloom_gain: 
     t2 = (1.0 - cos_t) * np.float32(2.0 * _DEG2)
     out = np.float32(amplitude) / (t2 + np.float32(_THETA0_DEG2))
     if bloom_gain > 0 and bloom_deg > 0:
-        out += np.float32(bloom_gain) * cv2.exp(t2 * np.float32(-1.0 / bloom_deg**2))
+        out += np.float32(bloom_gain) * fast_exp(t2 * np.float32(-1.0 / bloom_deg**2))
     return out
 
 

@@ -22,12 +22,21 @@ Physics
 
 Severity mapping (:meth:`SnowParams.from_severity`), s in [0, 1]::
 
-    flake_density_m3 = 3000 · s^1.5            # 1060 /m³ at s=0.5 (visibility ≈ 470 m), 3000 at s=1 (≈ 170 m)
+    flake_density_m3 = 3000 · s^1.5            # 1060 /m³ at s=0.5 (visibility ≈ 450 m), 3000 at s=1 (≈ 160 m)
     wind_m_s         = 6 · s
     drift_m_s        = 0.4
     exposure_s       = 1/500                    # as rain: a daylight dashcam
     settle           = 0.9 · clip((s − 0.5)/0.5, 0, 1)   # no cover below s = 0.5
     settle_on_road   = False
+    max_particles    = 3000                     # see below
+
+Particle budget: only flakes whose image is at least 0.15 px wide are simulated one
+by one, and at most ``max_particles`` of them, the largest first; the others act
+through the haze term, which integrates the whole size distribution. Snow is dense:
+at s = 1 about 157 000 flakes are in range, and the default budget keeps the 3000
+largest, so heavy snowfall lacks the fine speckle of its many small far flakes
+(measured on a racetrack frame: 965 pixels changed by flakes instead of 35 000; an
+unlimited budget costs ≈ 120 ms per frame).
 """
 
 from __future__ import annotations
@@ -119,7 +128,8 @@ class SnowParams:
     haze_scale : float
         Multiplier of the flakes' extinction, in [0, 100] (0: no haze).
     max_particles : int
-        Budget of simulated flakes, in [0, 200000].
+        Budget of simulated flakes, in [0, 200000] (about 0.3 µs each per frame
+        beyond ~1 ms of fixed cost at 320x180; see the module docstring).
     """
 
     flake_density_m3: float = 1000.0
@@ -132,7 +142,7 @@ class SnowParams:
     settle_on_road: bool = False
     airlight: float = 0.75
     haze_scale: float = 1.0
-    max_particles: int = 6000
+    max_particles: int = 3000
 
     def __post_init__(self) -> None:
         for name, lo, hi, unit in (
