@@ -481,9 +481,14 @@ def material_weights(state: FrameState, table: dict[int, float], default_ground:
     """
     if state.material is None:
         return np.where(state.ground, np.float32(default_ground), np.float32(0.0)).astype(np.float32)
+    return cv2.LUT(state.material, _material_lut(tuple(sorted(table.items()))))
+
+
+@lru_cache(maxsize=32)
+def _material_lut(items: tuple[tuple[int, float], ...]) -> np.ndarray:
     lut = np.zeros(256, dtype=np.float32)
-    for code, wgt in table.items():
+    for code, wgt in items:
         lut[code] = wgt
-    return cv2.LUT(state.material, lut)
-    return out
+    lut.flags.writeable = False
+    return lut
 
