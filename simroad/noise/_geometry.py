@@ -53,17 +53,14 @@ class ViewGeometry:
         Intrinsics in pixels.
     height_m, forward_m : float
         Camera height above the road and ahead of the ego centre, m.
-    rays : ndarray float32 (H, W, 3)
-        Unit ray of every pixel in the ego frame.
     ray_planes : tuple of three ndarray float32 (H, W)
-        The same rays' X, Y and Z components as contiguous planes.
+        X, Y and Z components of every pixel's unit ray in the ego frame (Z is the
+        cosine between the ground normal and the direction back to the camera).
     ray_planes_half : tuple of three ndarray float32 (ceil(H/2), ceil(W/2))
         The rays of every other row and column (for smooth fields computed at half
         resolution and upsampled).
     ground : ndarray bool (H, W)
         Pixels whose ray meets the ground within range.
-    cos_view : ndarray float32 (H, W)
-        Cosine between the ground normal and the direction to the camera (0 off-ground).
     fresnel_water : ndarray float32 (H, W)
         Fresnel reflectance of a water film for the pixel's viewing angle.
     mirror_map : tuple of two ndarray float32 (H, W)
@@ -86,11 +83,9 @@ class ViewGeometry:
     cy: float
     height_m: float
     forward_m: float
-    rays: np.ndarray
     ray_planes: tuple[np.ndarray, np.ndarray, np.ndarray]
     ray_planes_half: tuple[np.ndarray, np.ndarray, np.ndarray]
     ground: np.ndarray
-    cos_view: np.ndarray
     fresnel_water: np.ndarray
     mirror_map: tuple[np.ndarray, np.ndarray]
     ground_xy: np.ndarray
@@ -158,11 +153,9 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
         cy=float(K[1, 2]),
         height_m=config.mount_height_m,
         forward_m=config.forward_offset_m,
-        rays=rays.astype(np.float32),
         ray_planes=tuple(np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3)),
         ray_planes_half=tuple(np.ascontiguousarray(rays[::2, ::2, k], dtype=np.float32) for k in range(3)),
         ground=ground,
-        cos_view=cos_view.astype(np.float32),
         fresnel_water=fres.astype(np.float32),
         mirror_map=(mu.astype(np.float32), mv.astype(np.float32)),
         ground_xy=gxy.astype(np.float32),

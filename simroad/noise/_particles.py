@@ -22,17 +22,19 @@ area, so it blends ``I = β·I_E + (1 − β)·I_b`` with
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from simroad.noise._geometry import ViewGeometry
-from simroad.noise.base import rgb_scalar
+from simroad.noise._geometry import ViewGeometry, view_geometry
+from simroad.noise.base import FrameState, NoiseModel, rgb_scalar
 
 __all__ = [
     "ParticleField",
+    "ParticleModel",
     "advance",
     "blend",
     "particle_velocity",
@@ -40,6 +42,7 @@ __all__ = [
     "sample_field",
     "splat_streaks",
     "streaks",
+    "wind_in_ego",
 ]
 
 _Z_NEAR_M = 0.05
@@ -370,3 +373,50 @@ def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:
     d = cv2.subtract(lin, rgb_scalar(radiance))
     d *= cv2.cvtColor(beta, cv2.COLOR_GRAY2RGB)
     lin -= d
+
+
+def wind_in_ego(speed_m_s: float, dir_deg: float, heading_rad: float) -> np.ndarray:
+    """World wind (speed, heading it blows towards) as ego (forward, right) m/s."""
+    phi = math.radians(dir_deg) - heading_rad
+    return np.array([speed_m_s * math.cos(phi), speed_m_s * math.sin(phi)])
+
+
+class ParticleModel(NoiseModel):
+    """The ``particles`` stage shared by rain and snow.
+
+    Subclasses provide ``_sample(geom) -> ParticleField``, ``_radiance(state)`` (the
+    particles' linear RGB, (3,)) and ``_has_particles()``; their params carry
+    ``wind_m_s``, ``wind_dir_deg`` and ``exposure_s``. The field is drawn at the first
+    frame (from the model's generator) and then advanced by ``ctx.dt`` every frame.
+    """
+
+    def _on_reset(self) -> None:
+        self.field: ParticleField | None = None
+        self._field_config = None
+
+    def _sample(self, geom: ViewGeometry) -> ParticleField:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _radiance(self, state: FrameState) -> np.ndarray:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def _has_particles(self) -> bool:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def particles(self, state: FrameState) -> None:
+        if not self._has_particles():
+            return
+        p, ctx = self.params, state.ctx
+        geom = view_geometry(state.camera)
+        motion = dict(
+            wind_ego=wind_in_ego(p.wind_m_s, p.wind_dir_deg, state.camera.pose[2]),
+            speed=ctx.ego_speed,
+            yaw_rate=ctx.ego_yaw_rate,
+        )
+        if self.field is None or self._field_config != geom.config:
+            self.field = self._sample(geom)
+            self._field_config = geom.config
+        else:
+            advance(self.field, ctx.dt, forward_m=geom.forward_m, time_s=ctx.time_s, **motion)
+        seg = streaks(self.field, geom, exposure_s=p.exposure_s, time_s=ctx.time_s, **motion)
+        blend(state.lin, splat_streaks(*seg, state.shape), self._radiance(state))

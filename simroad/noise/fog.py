@@ -71,7 +71,7 @@ def koschmieder(
 
 
 @dataclass(frozen=True)
-class FogParams:
+class FogParams(Params):
     """Physical parameters of fog.
 
     Parameters

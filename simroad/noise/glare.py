@@ -121,7 +121,7 @@ def veiling_glare(rx, ry, rz, sun: np.ndarray, *, amplitude: float, bloom_gain: 
 
 
 @dataclass(frozen=True)
-class GlareParams:
+class GlareParams(Params):
     """Physical parameters of the sun and the road's specular reflection.
 
     Parameters

@@ -60,7 +60,7 @@ from simroad._validation import check_choice, check_in_range, check_int_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
 from simroad.noise import _particles as pt
 from simroad.noise._geometry import ViewGeometry, view_geometry
-from simroad.noise.base import FrameState, NoiseModel, Params, gray3, material_weights
+from simroad.noise.base import FrameState, Params, gray3, material_weights
 from simroad.noise.fog import koschmieder
 
 __all__ = [
@@ -159,7 +159,7 @@ def wet_albedo(albedo: np.ndarray, wetness: np.ndarray | float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class RainParams:
+class RainParams(Params):
     """Physical parameters of rain.
 
     Parameters
@@ -235,22 +235,12 @@ def _mirror_maps(geom: ViewGeometry, rows: slice) -> tuple[np.ndarray, np.ndarra
     return _mirror_maps_cached(geom, rows.start, rows.stop)
 
 
-def wind_in_ego(speed_m_s: float, dir_deg: float, heading_rad: float) -> np.ndarray:
-    """World wind (speed, heading it blows towards) as ego (forward, right) m/s."""
-    phi = math.radians(dir_deg) - heading_rad
-    return np.array([speed_m_s * math.cos(phi), speed_m_s * math.sin(phi)])
-
-
-class RainModel(NoiseModel):
+class RainModel(pt.ParticleModel):
     """Rain drops, rain haze and a wet road (see the module docstring)."""
 
     name = "rain"
     params_type = RainParams
     stages = ("material", "reflection", "atmosphere", "particles")
-
-    def _on_reset(self) -> None:
-        self.field: pt.ParticleField | None = None
-        self._field_config = None
 
     def prepare(self, state: FrameState) -> None:
         state.water_film = max(state.water_film, self.params.water_film)
@@ -308,19 +298,8 @@ class RainModel(NoiseModel):
             max_particles=p.max_particles,
         )
 
-    def particles(self, state: FrameState) -> None:
-        p = self.params
-        if p.rate_mm_h == 0.0 or p.max_particles == 0:
-            return
-        geom = view_geometry(state.camera)
-        ctx = state.ctx
-        wind = wind_in_ego(p.wind_m_s, p.wind_dir_deg, state.camera.pose[2])
-        motion = dict(wind_ego=wind, speed=ctx.ego_speed, yaw_rate=ctx.ego_yaw_rate)
-        if self.field is None or self._field_config != geom.config:
-            self.field = self._sample(geom)
-            self._field_config = geom.config
-        else:
-            pt.advance(self.field, ctx.dt, forward_m=geom.forward_m, time_s=ctx.time_s, **motion)
-        seg = pt.streaks(self.field, geom, exposure_s=p.exposure_s, time_s=ctx.time_s, **motion)
-        beta = pt.splat_streaks(*seg, state.shape)
-        pt.blend(state.lin, beta, drop_radiance(state.scene_mean(), state.sky_radiance()))
+    def _has_particles(self) -> bool:
+        return self.params.rate_mm_h > 0.0 and self.params.max_particles > 0
+
+    def _radiance(self, state: FrameState) -> np.ndarray:
+        return drop_radiance(state.scene_mean(), state.sky_radiance())

@@ -67,7 +67,7 @@ def shadow_factor(sun_sky_ratio_rgb, elevation_rad: float, sun_transmittance: fl
 
 
 @dataclass(frozen=True)
-class ShadowParams:
+class ShadowParams(Params):
     """Physical parameters of the sun and the shadow casters.
 
     Parameters

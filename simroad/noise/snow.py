@@ -51,9 +51,9 @@ from simroad._validation import check_in_range, check_int_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
 from simroad.noise import _particles as pt
 from simroad.noise._geometry import ego_to_world, view_geometry
-from simroad.noise.base import FrameState, NoiseModel, Params, gray3, rgb_scalar, smoothstep
+from simroad.noise.base import FrameState, Params, gray3, material_weights, rgb_scalar, smoothstep
 from simroad.noise.fog import koschmieder
-from simroad.noise.rain import exposure_beta, wind_in_ego
+from simroad.noise.rain import exposure_beta
 
 __all__ = [
     "SnowModel",
@@ -69,6 +69,8 @@ D_RANGE_MM = (1.0, 5.0)
 SIZE_SLOPE_PER_MM = 0.8
 X_NEAR_M = 0.6
 SNOW_RGB = np.array([0.80, 0.82, 0.86], dtype=np.float32)  # linear, slightly blue
+_BESIDE = {ROADSIDE: 1.0, SHOULDER: 1.0}
+_ROAD_TOO = {ROADSIDE: 1.0, SHOULDER: 1.0, ASPHALT: 1.0, MARKING: 1.0}
 
 
 def flake_fall_speed(diameter_mm: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
@@ -102,7 +104,7 @@ def snow_extinction(flake_density_m3: float) -> float:
 
 
 @dataclass(frozen=True)
-class SnowParams:
+class SnowParams(Params):
     """Physical parameters of snowfall.
 
     Parameters
@@ -219,7 +221,7 @@ def _cover_map(geom, rows: slice, pose, settle: float, lattice: np.ndarray) -> n
     return cv2.resize(half, (geom.config.width, rows.stop - rows.start), interpolation=cv2.INTER_LINEAR)
 
 
-class SnowModel(NoiseModel):
+class SnowModel(pt.ParticleModel):
     """Snow flakes, snow haze and settled snow (see the module docstring)."""
 
     name = "snow"
@@ -227,19 +229,15 @@ class SnowModel(NoiseModel):
     stages = ("material", "atmosphere", "particles")
 
     def _on_reset(self) -> None:
-        self.field: pt.ParticleField | None = None
-        self._field_config = None
+        super()._on_reset()
         self._lattice: np.ndarray | None = None
 
     def material(self, state: FrameState) -> None:
         p = self.params
         if p.settle == 0.0 or state.material is None:
             return
-        codes = [ROADSIDE, SHOULDER] + ([ASPHALT, MARKING] if p.settle_on_road else [])
         r = state.ground_rows
-        lut = np.zeros(256, dtype=np.float32)
-        lut[codes] = 1.0
-        where = cv2.LUT(state.material[r], lut)
+        where = material_weights(state, _ROAD_TOO if p.settle_on_road else _BESIDE, 0.0)[r]
         if not where.any():
             return
         if self._lattice is None:
@@ -271,19 +269,8 @@ class SnowModel(NoiseModel):
             drift_m_s=p.drift_m_s,
         )
 
-    def particles(self, state: FrameState) -> None:
-        p = self.params
-        if p.flake_density_m3 == 0.0 or p.max_particles == 0:
-            return
-        geom = view_geometry(state.camera)
-        ctx = state.ctx
-        wind = wind_in_ego(p.wind_m_s, p.wind_dir_deg, state.camera.pose[2])
-        motion = dict(wind_ego=wind, speed=ctx.ego_speed, yaw_rate=ctx.ego_yaw_rate)
-        if self.field is None or self._field_config != geom.config:
-            self.field = self._sample(geom)
-            self._field_config = geom.config
-        else:
-            pt.advance(self.field, ctx.dt, forward_m=geom.forward_m, time_s=ctx.time_s, **motion)
-        seg = pt.streaks(self.field, geom, exposure_s=p.exposure_s, time_s=ctx.time_s, **motion)
-        beta = pt.splat_streaks(*seg, state.shape)
-        pt.blend(state.lin, beta, SNOW_RGB * np.float32(p.flake_albedo / SNOW_RGB.max()))
+    def _has_particles(self) -> bool:
+        return self.params.flake_density_m3 > 0.0 and self.params.max_particles > 0
+
+    def _radiance(self, state: FrameState) -> np.ndarray:
+        return SNOW_RGB * np.float32(self.params.flake_albedo / SNOW_RGB.max())

@@ -11,6 +11,7 @@ from scipy import integrate
 from simroad.camera import ASPHALT
 from simroad.noise import RainModel, RainParams, make_weather, srgb_to_linear
 from simroad.noise import _particles as pt
+from simroad.noise._particles import wind_in_ego
 from simroad.noise._geometry import view_geometry
 from simroad.noise.rain import (
     exposure_beta,
@@ -18,7 +19,6 @@ from simroad.noise.rain import (
     rain_extinction,
     terminal_velocity,
     wet_albedo,
-    wind_in_ego,
 )
 
 
