@@ -154,7 +154,7 @@ def flat_ground_camera(height: int, width: int) -> PinholeCamera:
     return cam
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class NoiseContext:
     """What the weather models may know about one frame besides its pixels.
 
