@@ -1,1 +1,30 @@
-"""simroad.detector"""
+"""The paper's road detector (§III): features, SVM segmentation, lookup table, morphology."""
+
+from __future__ import annotations
+
+from simroad.detector.detector import (
+    FILTERS,
+    MIN_IMAGE_SIZE,
+    RoadDetector,
+    apply_filters,
+    default_model_path,
+    train_default,
+)
+from simroad.detector.features import hsi, pixel_features
+from simroad.detector.morphology import fill_holes, keep_ego_component, postprocess
+from simroad.detector.svm import KernelExpansion
+
+__all__ = [
+    "FILTERS",
+    "MIN_IMAGE_SIZE",
+    "KernelExpansion",
+    "RoadDetector",
+    "apply_filters",
+    "default_model_path",
+    "fill_holes",
+    "hsi",
+    "keep_ego_component",
+    "pixel_features",
+    "postprocess",
+    "train_default",
+]

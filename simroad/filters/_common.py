@@ -1,0 +1,91 @@
+"""Shared plumbing of the filters: dtype round trips, channel planes, input checks.
+
+Every public filter accepts ``uint8`` images (0-255) or float images in [0, 1]
+(``float32`` or ``float64``) and hands back the caller's dtype. Internally the filters
+work on three contiguous float32 *planes* in [0, 1] -- one (H, W) array per channel --
+because OpenCV's box filters and NumPy's element-wise arithmetic are several times
+faster on planes than on interleaved (H, W, 3) pixels (and ``cv2.split`` of a float
+image costs more than a whole box filter).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from simroad._validation import check_image
+
+__all__ = [
+    "FILTER_DTYPES",
+    "channel_max",
+    "channel_min",
+    "channel_sum",
+    "check_filter_image",
+    "clip_planes",
+    "from_planes",
+    "planes_to_uint8",
+    "to_planes",
+]
+
+#: Image dtypes every public filter accepts and returns unchanged.
+FILTER_DTYPES = ("uint8", "float32", "float64")
+
+Planes = list  # three float32 (H, W) arrays: R, G, B
+
+
+def check_filter_image(name: str, image: object) -> np.ndarray:
+    """Validate a filter input: ``(H, W, 3)`` uint8 or float in [0, 1], finite, non-empty."""
+    return check_image(name, image, dtype=FILTER_DTYPES, channels=3, min_size=1)
+
+
+def to_planes(image: np.ndarray) -> Planes:
+    """``(H, W, 3)`` uint8 or float image -> list of three contiguous float32 planes in [0, 1].
+
+    Always a new array: the caller's image is never aliased, so the filters are pure.
+    """
+    planar = np.ascontiguousarray(image.transpose(2, 0, 1), dtype=np.float32)
+    if image.dtype == np.uint8:
+        planar *= np.float32(1.0 / 255.0)
+    return [planar[0], planar[1], planar[2]]
+
+
+def from_planes(planes: Planes, dtype: np.dtype) -> np.ndarray:
+    """Clip float32 planes to [0, 1] and interleave them into an (H, W, 3) ``dtype`` image.
+
+    ``uint8`` is rounded to the nearest level, so an untouched pixel survives the
+    ``uint8 -> float32 -> uint8`` round trip exactly.
+    """
+    if dtype == np.uint8:
+        return cv2.merge([cv2.convertScaleAbs(np.maximum(p, 0.0), alpha=255.0) for p in planes])
+    out = np.stack(planes, axis=-1)
+    np.clip(out, 0.0, 1.0, out=out)
+    return out.astype(dtype, copy=False)
+
+
+def planes_to_uint8(planes: Planes) -> list[np.ndarray]:
+    """Float32 planes in [0, 1] -> uint8 planes (rounded, saturated)."""
+    return [cv2.convertScaleAbs(np.maximum(p, 0.0), alpha=255.0) for p in planes]
+
+
+def clip_planes(planes: Planes) -> Planes:
+    """Clip each plane to [0, 1] in place and return the list."""
+    for p in planes:
+        np.clip(p, 0.0, 1.0, out=p)
+    return planes
+
+
+def channel_max(planes: Planes) -> np.ndarray:
+    """Per-pixel ``max_c I^c`` of three planes, (H, W) float32."""
+    return cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+
+
+def channel_min(planes: Planes) -> np.ndarray:
+    """Per-pixel ``min_c I^c`` of three planes, (H, W) float32."""
+    return cv2.min(cv2.min(planes[0], planes[1]), planes[2])
+
+
+def channel_sum(planes: Planes) -> np.ndarray:
+    """Per-pixel ``sum_c I^c`` of three planes, (H, W) float32."""
+    out = planes[0] + planes[1]
+    out += planes[2]
+    return out
