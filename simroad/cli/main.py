@@ -103,6 +103,43 @@ def _cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_train(args: argparse.Namespace) -> int:
+    from simroad.experiments.training import train_detector
+
+    seeds = range(args.seed_start, args.seed_start + args.seeds)
+    path = train_detector(args.out, seeds=seeds, frames_per_seed=args.frames)
+    print(f"wrote {path}")
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    import json
+
+    from simroad.experiments.evaluate import evaluate_frames, format_table, load_image_folder, qualitative_figure
+    from simroad.experiments.episode import parse_filters
+    from simroad.experiments.frames import collect_frames
+
+    settings = [parse_filters(f) for f in args.filters.split(",")]
+    if args.images or args.masks:
+        if not (args.images and args.masks):
+            raise SimroadError("images: --images and --masks go together.")
+        frames = load_image_folder(args.images, args.masks)
+    else:
+        seeds = range(args.seed_start, args.seed_start + args.seeds)
+        frames = collect_frames(scenarios=args.scenario.split(","), seeds=seeds, frames_per_seed=args.frames, noise=args.noise, severity=args.severity)
+    rows, frows = evaluate_frames(frames, settings)
+    if args.json:
+        print(json.dumps({"detector": rows, "filter_masks": frows}))
+    else:
+        print(format_table(rows, percent=("fnr", "fpr")))
+        if frows:
+            print()
+            print(format_table(frows))
+    if args.figure:
+        print(f"wrote {qualitative_figure(args.figure)}")
+    return 0
+
+
 def _cmd_figure(args: argparse.Namespace) -> int:
     from simroad.experiments import figures
 
@@ -162,6 +199,27 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="rebuild a sweep's tables and figures from results.jsonl")
     p.add_argument("dir", help="the sweep's output directory")
     p.set_defaults(func=_cmd_report)
+
+    p = sub.add_parser("train-detector", help="reproduce the shipped road detector", description="Render clean frames of all three scenarios (one world palette per seed), fit the default SVM detector and save it as npz (no pickle).")
+    p.add_argument("--out", default=None, help="output .npz (default: the package's shipped model file)")
+    p.add_argument("--seeds", type=int, default=8, help="number of training worlds (default: 8)")
+    p.add_argument("--seed-start", type=int, default=0, help="first seed (default: 0; evaluation uses seeds >= 100)")
+    p.add_argument("--frames", type=int, default=6, help="frames per scenario and seed (default: 6)")
+    p.set_defaults(func=_cmd_train)
+
+    p = sub.add_parser("evaluate-detector", help="score the detector per filter setting (FNR, FPR, IoU, F1)", description="Score the shipped detector on rendered frames (held-out seeds) or on a folder of real images and masks, for each filter setting; also score the filters' own masks against the ground-truth noise masks.")
+    p.add_argument("--scenario", default="racetrack,highway,winding", help="comma-separated scenarios (default: all three)")
+    p.add_argument("--noise", default="clear", help="weather of the rendered frames")
+    p.add_argument("--severity", type=float, default=0.7, help="weather severity in [0, 1] (default: 0.7)")
+    p.add_argument("--filters", default="none,all", help="comma-separated filter settings (default: none,all)")
+    p.add_argument("--seeds", type=int, default=5, help="number of held-out seeds (default: 5)")
+    p.add_argument("--seed-start", type=int, default=100, help="first seed (default: 100)")
+    p.add_argument("--frames", type=int, default=20, help="frames per scenario and seed (default: 20)")
+    p.add_argument("--images", help="folder of real images (instead of rendered frames)")
+    p.add_argument("--masks", help="folder of their road masks (same file names, or road_N for frame_N)")
+    p.add_argument("--figure", help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=_cmd_evaluate)
 
     p = sub.add_parser("figure", help="draw a documentation figure", description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).")
     p.add_argument("what", choices=("camera", "weather"), help="which figure")

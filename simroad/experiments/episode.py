@@ -194,5 +194,9 @@ def run_episode(
 
 
 def _mask_record(masks) -> dict[str, float]:
-    r = masks.result()
-    return {k: float(r[k]) for k in ("fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "iou", "f1")}
+    r = masks.summary()
+    return {
+        "fnr": float(r["fnr"]), "fpr": float(r["fpr"]),
+        "fnr_frame_mean": float(r["mean_fnr"]), "fpr_frame_mean": float(r["mean_fpr"]),
+        "iou": float(r["iou"]), "f1": float(r["f1"]),
+    }  # fmt: skip

@@ -1,0 +1,148 @@
+"""Offline detector evaluation (``simroad evaluate-detector``) and the paper's
+qualitative figure (its Figs. 3-6)."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from simroad._validation import SimroadError
+from simroad.experiments.episode import format_filters
+from simroad.experiments.frames import FrameSet, collect_frames
+from simroad.metrics.mask import MaskScore
+
+__all__ = ["FILTER_MASK_TRUTH", "evaluate_frames", "format_table", "load_image_folder", "qualitative_figure"]
+
+#: Which ground-truth noise mask a filter's own detection mask is scored against.
+FILTER_MASK_TRUTH = {"shadow": "shadow", "light": "glare"}
+
+
+def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> FrameSet:
+    """Pair ``images/NAME.*`` with ``masks/NAME.*`` (road where the mask is > 127).
+
+    Mask files may also be named like ``road_0000.png`` for ``frame_0000.png`` (the
+    layout ``simroad frames`` writes).
+    """
+    idir, mdir = Path(images), Path(masks)
+    for name, d in (("images", idir), ("masks", mdir)):
+        if not d.is_dir():
+            raise SimroadError(f"{name}: {str(d)!r} is not a directory.")
+    exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
+    mask_files = {p.stem: p for p in mdir.iterdir() if p.suffix.lower() in exts}
+    out = FrameSet()
+    for p in sorted(q for q in idir.iterdir() if q.suffix.lower() in exts):
+        m = mask_files.get(p.stem) or mask_files.get(p.stem.replace("frame_", "road_"))
+        if m is None:
+            continue
+        bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
+        grey = cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)
+        if bgr is None or grey is None:
+            raise SimroadError(f"images: could not read {str(p)!r} or {str(m)!r}.")
+        if grey.shape != bgr.shape[:2]:
+            raise SimroadError(f"masks: {m.name} is {grey.shape[::-1]} but {p.name} is {bgr.shape[1::-1]} (width x height).")
+        out.images.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
+        out.masks.append(grey > 127)
+        out.noise_masks.append({})
+        out.valid.append(np.ones(grey.shape, bool))
+        out.source.append((p.name, 0, 0))
+    if not out.images:
+        raise SimroadError(f"images: no image in {str(idir)!r} has a mask of the same name in {str(mdir)!r}.")
+    return out
+
+
+def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
+    from simroad.filters import remove_highlights, remove_shadows
+
+    fns = {"shadow": remove_shadows, "light": remove_highlights}
+    scores: dict[str, MaskScore] = {}
+    for name in filters:
+        truth_name = FILTER_MASK_TRUTH.get(name)
+        if truth_name is None:
+            continue
+        score = MaskScore()
+        for img, noise in zip(frames.images, frames.noise_masks):
+            if truth_name in noise:
+                _, detected = fns[name](img)
+                score.update(detected, noise[truth_name])
+        if score.n_frames:
+            scores[f"{name} filter vs GT {truth_name}"] = score
+    return scores
+
+
+def evaluate_frames(frames: FrameSet, settings: Sequence[tuple[str, ...]], *, detector_factory=None) -> tuple[list[dict], list[dict]]:
+    """Score each filter setting's masks on ``frames``; also the filters' own masks.
+
+    Returns (detector rows, filter-mask rows), each a list of dicts.
+    """
+    from simroad.detector import RoadDetector
+
+    factory = detector_factory or (lambda f: RoadDetector.pretrained(filters=f))
+    rows = []
+    for filters in settings:
+        det = factory(tuple(filters))
+        score = MaskScore()
+        for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
+            score.update(det.predict(img), gt, valid=valid)
+        s = score.summary()
+        rows.append({"filters": format_filters(filters), "frames": score.n_frames, **{k: s[k] for k in ("fnr", "fpr", "iou", "f1")}})
+    all_filters = sorted({f for setting in settings for f in setting})
+    frows = []
+    for name, score in _filter_mask_scores(frames, all_filters).items():
+        s = score.summary()
+        frows.append({"mask": name, "frames": score.n_frames, **{k: s[k] for k in ("precision", "recall", "iou", "f1")}})
+    return rows, frows
+
+
+def format_table(rows: list[dict], *, percent: Sequence[str] = ()) -> str:
+    """A plain text table of dict rows."""
+    if not rows:
+        return "(no rows)"
+    cols = list(rows[0])
+
+    def cell(k, v):
+        if isinstance(v, float):
+            return f"{100 * v:.2f}%" if k in percent else f"{v:.3f}"
+        return str(v)
+
+    text = [[cell(k, r[k]) for k in cols] for r in rows]
+    widths = [max(len(c), *(len(t[i]) for t in text)) for i, c in enumerate(cols)]
+    lines = ["  ".join(c.rjust(w) for c, w in zip(cols, widths))]
+    lines += ["  ".join(v.rjust(w) for v, w in zip(t, widths)) for t in text]
+    return "\n".join(lines)
+
+
+def qualitative_figure(path: str | os.PathLike, *, scenario: str = "winding", seed: int = 0, severity: float = 0.7) -> Path:
+    """The paper's Figs. 3-6 for every noise: the noisy frame, the mask without
+    filters, the mask with all filters, and the ground-truth outline."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from simroad.detector import FILTERS, RoadDetector
+    from simroad.experiments.video import overlay_frame
+
+    noises = ("glare", "shadow", "snow", "rain")
+    plain, full = RoadDetector.pretrained(filters=()), RoadDetector.pretrained(filters=tuple(FILTERS))
+    fig, axes = plt.subplots(len(noises), 3, figsize=(10, 1.95 * len(noises)))
+    for row, noise in enumerate(noises):
+        fs = collect_frames(scenarios=(scenario,), seeds=(seed,), frames_per_seed=1, noise=noise, severity=severity, every=8)
+        img, gt = fs.images[0], fs.masks[0]
+        panels = (
+            (overlay_frame(img, gt, None), f"{noise} (severity {severity:g}), GT outline"),
+            (overlay_frame(img, gt, plain.predict(img)), "detector without filters"),
+            (overlay_frame(img, gt, full.predict(img)), "detector with filters"),
+        )
+        for ax, (im, title) in zip(axes[row], panels):
+            ax.imshow(im)
+            ax.set_title(title, fontsize=8)
+            ax.axis("off")
+    fig.tight_layout()
+    out = Path(path)
+    fig.savefig(out, dpi=85)
+    plt.close(fig)
+    return out
