@@ -175,14 +175,14 @@ class MaskLaneKeeper:
             slope = np.where(np.isfinite(sr), sr, 0.0)[both]
             width = np.median((right[both] - left[both]) / np.sqrt(1.0 + slope**2))
             self.lanes = max(1, int(round(width / w)))
-        if self.lane_from_right is None:
-            if np.isfinite(right).any():
-                i = int(np.argmax(np.isfinite(right)))
-                self.lane_from_right = max(0, int(math.floor(right[i] / math.sqrt(1.0 + sr[i] ** 2) / w)))
-            elif np.isfinite(left).any() and self.lanes is not None:
-                i = int(np.argmax(np.isfinite(left)))
-                from_left = int(math.floor(-left[i] / math.sqrt(1.0 + sl[i] ** 2) / w))
-                self.lane_from_right = max(0, self.lanes - 1 - from_left)
+        if self.lane_from_right is None:  # median over rows: robust to a car hiding an edge
+            ok_r, ok_l = np.isfinite(right), np.isfinite(left)
+            if ok_r.any():
+                dist = np.median(right[ok_r] / np.sqrt(1.0 + sr[ok_r] ** 2))
+                self.lane_from_right = max(0, int(math.floor(dist / w)))
+            elif ok_l.any() and self.lanes is not None:
+                dist = np.median(-left[ok_l] / np.sqrt(1.0 + sl[ok_l] ** 2))
+                self.lane_from_right = max(0, self.lanes - 1 - int(math.floor(dist / w)))
         k, n = self.lane_from_right, self.lanes
         pts = []
         if k is not None:
@@ -202,6 +202,10 @@ class MaskLaneKeeper:
         if not pts:
             return np.zeros(0), np.zeros(0)
         arr = np.asarray(sorted(pts))
+        if self._prev_coeffs is not None:  # temporal consistency: the lane moves little per frame
+            near = np.abs(arr[:, 1] - np.polyval(self._prev_coeffs, arr[:, 0])) < 1.0
+            if near.sum() >= 2:
+                arr = arr[near]
         return arr[:, 0], arr[:, 1]
 
     def _free_beyond(self, mask: np.ndarray, xs: list, centres: list, free: float) -> float:
@@ -221,14 +225,25 @@ class MaskLaneKeeper:
     def _fit(self, est: PathEstimate) -> np.ndarray:
         """Path Y(X) as quadratic coefficients (highest power first)."""
         x, y = est.x_m, est.centre_y_m
-        span = float(np.ptp(x)) if len(x) else 0.0
-        if len(x) >= 4 and span >= 4.0:
-            return np.polyfit(x, y, 2)
-        if len(x) >= 2 and span >= 1.0:
-            return np.concatenate([[0.0], np.polyfit(x, y, 1)])
-        if len(x):
-            return np.array([0.0, 0.0, float(np.mean(y))])
-        return self._prev_coeffs if self._prev_coeffs is not None else np.zeros(3)
+        coeffs = None
+        for _ in range(3):  # fit, drop outliers (a car's side taken for a road edge), refit
+            span = float(np.ptp(x)) if len(x) else 0.0
+            if len(x) >= 4 and span >= 4.0:
+                coeffs = np.polyfit(x, y, 2)
+            elif len(x) >= 2 and span >= 1.0:
+                coeffs = np.concatenate([[0.0], np.polyfit(x, y, 1)])
+            elif len(x):
+                coeffs = np.array([0.0, 0.0, float(np.median(y))])
+            else:
+                break
+            resid = np.abs(y - np.polyval(coeffs, x))
+            keep = resid <= max(0.5, 3.0 * float(np.median(resid)))
+            if keep.all() or keep.sum() < 2:
+                break
+            x, y = x[keep], y[keep]
+        if coeffs is None:
+            return self._prev_coeffs if self._prev_coeffs is not None else np.zeros(3)
+        return coeffs
 
     # ------------------------------------------------------------------ control
     def act(self, mask: np.ndarray, speed_m_s: float) -> np.ndarray:

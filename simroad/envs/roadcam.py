@@ -94,6 +94,9 @@ class RoadCamEnv(gym.Env):
         super().reset(seed=seed)
         rng = self.np_random
         self._hw.reset(seed=int(rng.integers(2**31 - 1)))
+        # Our roads are chains of short segments: let highway-env find the vehicle
+        # ahead across segment ends (IDM traffic and the time-to-collision use it).
+        self._hw.road.neighbour_vehicles_connected_lanes = True
         world_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
         palette = draw_palette(world_rng, roadside=self.config.roadside)
         self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)

@@ -20,8 +20,9 @@ distance, route completion
     by the cosine of the heading error; ``route_completion`` is progress divided by
     the route length, capped at 1.
 time-to-collision
-    For vehicles ahead within the ego's lane corridor and closing, gap / closing
-    speed; ``min_ttc_s`` is the minimum over the episode (inf if never closing).
+    For the vehicle ahead in the ego's lane (highway-env's ``neighbour_vehicles``),
+    gap / closing speed when closing; ``min_ttc_s`` is the minimum over the
+    episode (inf if never closing). Oncoming traffic in its own lane does not count.
 driving score
     In the spirit of the CARLA leaderboard: ``route_completion x product of
     penalties``, with one factor per infraction: vehicle collision 0.60, off-road
@@ -118,7 +119,7 @@ class SafetyScore:
         step = float(vehicle.speed) * self.dt
         self.distance_m += step
         self.progress_m += step * math.cos(herr)
-        self.min_ttc_s = min(self.min_ttc_s, _min_ttc(road, vehicle, half))
+        self.min_ttc_s = min(self.min_ttc_s, _min_ttc(road, vehicle))
 
     def result(self) -> dict[str, float | int | bool]:
         """The metrics as a flat dict (keys of the episode record)."""
@@ -144,22 +145,14 @@ class SafetyScore:
         }
 
 
-def _min_ttc(road, ego, half_width: float) -> float:
-    h = float(ego.heading)
-    fwd = np.array([math.cos(h), math.sin(h)])
-    right = np.array([-math.sin(h), math.cos(h)])
-    v_ego = float(ego.speed) * fwd
-    best = math.inf
-    for other in road.vehicles:
-        if other is ego:
-            continue
-        d = np.asarray(other.position) - np.asarray(ego.position)
-        ahead, lateral = float(d @ fwd), float(d @ right)
-        if ahead <= 0 or abs(lateral) > half_width + (ego.WIDTH + other.WIDTH) / 2 - 0.5:
-            continue
-        gap = ahead - (ego.LENGTH + other.LENGTH) / 2
-        v_other = float(other.speed) * np.array([math.cos(other.heading), math.sin(other.heading)])
-        closing = float((v_ego - v_other) @ fwd)
-        if closing > 1e-6:
-            best = min(best, max(gap, 0.0) / closing)
-    return best
+def _min_ttc(road, ego) -> float:
+    """Time to collision with the vehicle ahead in the ego's lane (highway-env's
+    ``road.neighbour_vehicles``, which also searches the connected next lane)."""
+    front, _ = road.neighbour_vehicles(ego, ego.lane_index)
+    if front is None:
+        return math.inf
+    gap = float(np.linalg.norm(np.asarray(front.position) - np.asarray(ego.position))) - (ego.LENGTH + front.LENGTH) / 2
+    closing = float(ego.speed) - float(front.speed) * math.cos(float(front.heading) - float(ego.heading))
+    if closing <= 1e-6:
+        return math.inf
+    return max(gap, 0.0) / closing
