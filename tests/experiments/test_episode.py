@@ -1,0 +1,91 @@
+"""Closed-loop episodes on the real highway-env with the real detector."""
+
+from __future__ import annotations
+
+import itertools
+import json
+
+import numpy as np
+import pytest
+
+from simroad import SimroadError
+from simroad.cli.main import main
+from simroad.envs import SCENARIO_NAMES
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
+from simroad.experiments.gate import check_requirements, parse_requirement
+from simroad.noise import NOISE_NAMES
+
+SHORT = 6
+
+
+@pytest.mark.parametrize("scenario, noise", list(itertools.product(SCENARIO_NAMES, NOISE_NAMES)))
+def test_short_headless_episode_of_every_scenario_and_noise(scenario, noise):
+    rec = run_episode(EpisodeSpec(scenario=scenario, noise=noise, severity=0.6, filters=("shadow", "rain_snow", "light"), steps=SHORT, seed=1))
+    assert tuple(rec) == RECORD_KEYS
+    assert rec["steps"] == SHORT and rec["noise"] == noise
+    assert 0.0 <= rec["fnr"] <= 1.0 and 0.0 <= rec["fpr"] <= 1.0
+    json.dumps(rec, allow_nan=False)  # strict JSON: no NaN or Infinity
+
+
+def test_same_seed_same_record():
+    spec = EpisodeSpec(scenario="winding", noise="rain", severity=0.5, steps=10, seed=3)
+    a, b = run_episode(spec), run_episode(spec)
+    timing = {"detect_ms_median", "step_ms_median", "wall_s"}
+    assert {k: v for k, v in a.items() if k not in timing} == {k: v for k, v in b.items() if k not in timing}
+
+
+def test_oracle_has_perfect_mask_metrics():
+    rec = run_episode(EpisodeSpec(scenario="racetrack", driver="oracle", steps=10))
+    assert rec["fnr"] == 0.0 and rec["fpr"] == 0.0 and rec["iou"] == 1.0
+
+
+def test_custom_callable_driver():
+    calls = []
+
+    def policy(obs):
+        calls.append(obs.shape)
+        return np.array([0.0, 0.0], dtype=np.float32)
+
+    rec = run_episode(EpisodeSpec(scenario="highway", steps=5, traffic=False), driver=policy)
+    assert rec["driver"] == "custom" and len(calls) == 5
+
+
+def test_require_gate_exit_codes(capsys):
+    args = ["episode", "--scenario", "highway", "--driver", "oracle", "--steps", "5", "--no-traffic", "--json"]
+    assert main(args + ["--require", "offroad_fraction<=0.01"]) == 0
+    assert main(args + ["--require", "fnr>0.5", "--require", "steps<3"]) == 1
+    err = capsys.readouterr().err
+    assert "fnr>0.5 violated: fnr = 0.0" in err and "steps<3 violated: steps = 5" in err
+
+
+@pytest.mark.parametrize("suffix", [".gif", ".mp4"])
+def test_video_is_written(tmp_path, suffix):
+    path = tmp_path / f"ep{suffix}"
+    run_episode(EpisodeSpec(scenario="winding", noise="snow", steps=4), video=str(path))
+    assert path.stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    "args, needle",
+    [(["--steps", "0"], "steps"), (["--driver", "orcale"], "Did you mean 'oracle'"), (["--filters", "shadw"], "filters"),
+     (["--filters", "shadow+shadow"], "twice"), (["--require", "fnr=0.1"], "require"), (["--require", "fnn<0.1"], "Did you mean 'fnr'"),
+     (["--video", "x.avi"], "video"), (["--noise", "rian"], "rain")],
+)  # fmt: skip
+def test_bad_input_exits_2(args, needle, capsys):
+    assert main(["episode", "--steps", "2", *args]) == 2  # a later --steps overrides the first
+    assert needle in capsys.readouterr().err
+
+
+def test_parse_filters():
+    assert parse_filters("none") == () and parse_filters("all") == ("shadow", "rain_snow", "light")
+    assert parse_filters("light+shadow") == ("shadow", "light")
+    with pytest.raises(SimroadError):
+        parse_filters("all+shadow")
+
+
+def test_requirement_parser():
+    r = parse_requirement("offroad_fraction <= 0.01", valid_keys=RECORD_KEYS)
+    assert check_requirements({"offroad_fraction": 0.0}, [r]) == []
+    assert check_requirements({"offroad_fraction": 0.5}, [r]) == ["requirement offroad_fraction<=0.01 violated: offroad_fraction = 0.5"]
+    # min_ttc_s is None when nothing ever closed in: that is infinitely safe
+    assert check_requirements({"min_ttc_s": None}, [parse_requirement("min_ttc_s>=2", valid_keys=RECORD_KEYS)]) == []
