@@ -79,7 +79,7 @@ def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...]) -> list[n
         if name == "rain_snow":
             out = _rain_snow_planes(out, 3, 1e-3, 0.05)
         elif name == "light":
-            out, _ = _highlights_planes(out, 7, 4, 1e-4, 2, 0.1)
+            out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1)
         else:
             out, _ = _shadows_planes(out, 0.0, 16, 5, 0.6)
         clip_planes(out)

@@ -1,0 +1,146 @@
+"""RoadDetector: sklearn conventions, persistence without pickle, clean-frame accuracy."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
+
+from simroad import SimroadError
+from simroad.detector import FILTERS, RoadDetector, default_model_path, train_default
+from simroad.metrics import MaskScore
+
+
+def test_predict_returns_a_bool_mask_close_to_the_exact_svm(small_detector, heldout_frames):
+    img = heldout_frames[0][0]
+    fast = small_detector.predict(img)
+    assert fast.dtype == bool and fast.shape == img.shape[:2]
+    assert (fast == small_detector.predict(img, exact=True)).mean() > 0.99
+    for dtype in ("float32", "float64"):
+        as_float = (img / 255).astype(dtype)
+        assert (small_detector.predict(as_float) == fast).mean() > 0.999
+
+
+@pytest.mark.parametrize("filters", [(), ("shadow",), ("rain_snow",), ("light",), FILTERS])
+def test_every_filter_subset_runs_and_morphology_switches(small_detector, heldout_frames, filters):
+    img = heldout_frames[0][1]
+    det = copy.deepcopy(small_detector).set_params(filters=filters)
+    with_m = det.predict(img)
+    without = det.set_params(morphology=False).predict(img)
+    assert with_m.shape == without.shape == img.shape[:2]
+
+
+def test_init_only_stores_and_clone_round_trips():
+    det = RoadDetector(("shadow", "light"), morphology=False, C=3.0, max_samples=99, lut_bits=5, random_state=4)
+    assert det.get_params() == {"filters": ("shadow", "light"), "morphology": False, "C": 3.0, "gamma": "scale",
+                                "max_samples": 99, "lut_bits": 5, "random_state": 4}  # fmt: skip
+    assert not [k for k in vars(det) if k.endswith("_")]
+    assert clone(det).get_params() == det.get_params()
+    RoadDetector(filters="nonsense")  # validated in fit/predict, not in __init__
+
+
+def test_predict_before_fit_is_not_fitted_error():
+    with pytest.raises(NotFittedError, match="RoadDetector is not fitted yet"):
+        RoadDetector().predict(np.zeros((20, 20, 3), np.uint8))
+    with pytest.raises(NotFittedError):
+        RoadDetector().save("never.npz")
+
+
+def test_fit_is_deterministic(train_frames):
+    a = RoadDetector(max_samples=600, lut_bits=4, random_state=3).fit(*train_frames)
+    b = RoadDetector(max_samples=600, lut_bits=4, random_state=3).fit(*train_frames)
+    np.testing.assert_array_equal(a.lut_, b.lut_)
+    np.testing.assert_array_equal(a.svm_.support_vectors, b.svm_.support_vectors)
+
+
+def test_save_load_round_trip_without_pickle(small_detector, heldout_frames, tmp_path):
+    path = tmp_path / "model.npz"
+    small_detector.save(path)
+    with np.load(path, allow_pickle=False) as data:  # arrays and a JSON string only
+        meta = json.loads(str(data["meta"]))
+        assert all(data[k].dtype != object for k in data.files)
+    assert meta["format"] == "simroad.RoadDetector" and meta["params"]["lut_bits"] == 5
+    loaded = RoadDetector.load(path)
+    assert loaded.svc_ is None and loaded.get_params()["filters"] == []
+    img = heldout_frames[0][2]
+    np.testing.assert_array_equal(loaded.predict(img), small_detector.predict(img))
+    np.testing.assert_array_equal(loaded.predict(img, exact=True), small_detector.predict(img, exact=True))
+
+
+def test_load_refuses_pickles_and_garbage(tmp_path):
+    pickled = tmp_path / "evil.npz"
+    np.savez(pickled, meta=np.array([{"x": 1}], dtype=object))
+    with pytest.raises(SimroadError, match="not a simroad road-detector"):
+        RoadDetector.load(pickled)
+    (tmp_path / "text.npz").write_text("hello")
+    with pytest.raises(SimroadError, match="not a simroad road-detector"):
+        RoadDetector.load(tmp_path / "text.npz")
+    with pytest.raises(SimroadError, match="no model file"):
+        RoadDetector.load(tmp_path / "missing.npz")
+    partial = tmp_path / "partial.npz"
+    np.savez(partial, lut=np.zeros(3, np.uint8))
+    with pytest.raises(SimroadError, match="missing"):
+        RoadDetector.load(partial)
+
+
+BAD_IMAGES = [
+    (np.zeros((0, 0, 3), np.uint8), "at least 8x8"),
+    (np.zeros((4, 30, 3), np.uint8), "at least 8x8"),
+    (np.full((20, 20, 3), np.nan, np.float32), "NaN"),
+    (np.zeros((20, 20, 3), np.int16), "dtype"),
+    (np.zeros((20, 20), np.uint8), "shape"),
+]
+
+
+@pytest.mark.parametrize("bad,match", BAD_IMAGES)
+def test_predict_rejects_bad_images(small_detector, bad, match):
+    with pytest.raises(SimroadError, match=match):
+        small_detector.predict(bad)
+
+
+def test_constant_images_do_not_crash(small_detector):
+    det = copy.deepcopy(small_detector).set_params(filters=FILTERS)
+    for value in (0, 128, 255):
+        assert det.predict(np.full((30, 40, 3), value, np.uint8)).shape == (30, 40)
+
+
+def test_fit_rejects_bad_training_sets(train_frames):
+    imgs, masks = train_frames
+    det = RoadDetector(max_samples=200, lut_bits=4)
+    with pytest.raises(SimroadError, match=r"masks\[0\]: expected shape"):
+        det.fit(imgs[:1], [masks[0][:-1]])
+    with pytest.raises(SimroadError, match="one mask per image"):
+        det.fit(imgs[:2], masks[:1])
+    with pytest.raises(SimroadError, match="at least one training image"):
+        det.fit([], [])
+    with pytest.raises(SimroadError, match="every training pixel is road"):
+        det.fit(imgs[:1], [np.ones_like(masks[0])])
+    with pytest.raises(SimroadError, match="Wrap a single image"):
+        det.fit(imgs[0], masks[0])
+    with pytest.raises(SimroadError, match="filters: unknown value 'rain'"):
+        RoadDetector(filters=("rain",)).fit(imgs, masks)
+    with pytest.raises(SimroadError, match="C: expected a value"):
+        RoadDetector(C=-1).fit(imgs, masks)
+
+
+def test_train_default_is_reproducible(train_frames):
+    imgs, masks = train_frames[0][:2], train_frames[1][:2]
+    a = train_default(imgs, masks, rng=np.random.default_rng(5))
+    b = train_default(imgs, masks, rng=5)
+    np.testing.assert_array_equal(a.lut_, b.lut_)
+    assert a.filters == () and a.morphology
+
+
+def test_pretrained_model_is_small_and_meets_clean_frame_targets(heldout_frames):
+    assert default_model_path().stat().st_size < 1_000_000
+    det = RoadDetector.pretrained()
+    score = MaskScore()
+    for img, gt in zip(*heldout_frames):
+        score.update(det.predict(img), gt)
+    pooled = score.pooled()
+    assert pooled["fnr"] <= 0.03 and pooled["fpr"] <= 0.03, pooled
+    assert RoadDetector.pretrained(filters=["light", "shadow"]).filters == ("light", "shadow")
