@@ -30,7 +30,7 @@ from simroad._validation import (
     normalize_rng,
 )
 from simroad.detector.features import N_FEATURES, _features_f
-from simroad.detector.lut import build_lut, lut_index, pack_lut, unpack_lut
+from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.svm import KernelExpansion
 from simroad.filters._common import clip_planes, from_planes, planes_to_uint8, to_planes
@@ -77,11 +77,11 @@ def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...]) -> list[n
     out = planes
     for name in filters:
         if name == "rain_snow":
-            out = _rain_snow_planes(out, 3, 1e-3, 0.05)
+            out = _rain_snow_planes(out, 2, 1e-3, 0.05, 2)
         elif name == "light":
-            out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1)
+            out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
         else:
-            out, _ = _shadows_planes(out, 0.0, 16, 5, 0.6)
+            out, _ = _shadows_planes(out, -1.0, 16, 5, 0.8)
         clip_planes(out)
     return out
 
@@ -203,8 +203,9 @@ class RoadDetector(BaseEstimator):
         non-road, spread evenly over the images. The SVM's cost grows roughly with
         its square.
     lut_bits : int, optional
-        Levels per RGB channel of the lookup table are ``2**lut_bits`` (4-8); the
-        table has ``2**(3 lut_bits)`` entries (262 144 for 6 bits, 32 kB packed).
+        Coarse levels per RGB channel of the lookup table are ``2**lut_bits`` (5-7);
+        cells near the decision boundary are stored at full 8-bit resolution either
+        way (see :class:`~simroad.detector.lut.ColourTable`). 6 builds fastest.
     random_state : int, optional
         Seed of the pixel sampling.
 
@@ -217,8 +218,8 @@ class RoadDetector(BaseEstimator):
     svc_ : sklearn.svm.SVC or None
         The scikit-learn model behind ``svm_``; only after :meth:`fit` in this
         process (None for a loaded model, which is not pickled).
-    lut_ : ndarray, bool, (2**(3 lut_bits),)
-        The SVM tabulated over RGB cells (see :mod:`simroad.detector.lut`).
+    lut_ : ColourTable
+        The SVM tabulated for every 8-bit RGB colour (see :mod:`simroad.detector.lut`).
     n_features_in_ : int
         3.
 
@@ -267,7 +268,7 @@ class RoadDetector(BaseEstimator):
         filters = _check_filters(self.filters)
         C = check_in_range("C", self.C, 0.0, 1e6, low_inclusive=False)
         n_max = check_int_in_range("max_samples", self.max_samples, 2, 1_000_000)
-        bits = check_int_in_range("lut_bits", self.lut_bits, 4, 8)
+        bits = check_int_in_range("lut_bits", self.lut_bits, 5, 7)
         rng = normalize_rng(self.random_state, name="random_state")
         imgs, msks = _check_training_set(images, masks)
         x, y = _sample_pixels(imgs, msks, filters, n_max, rng)
@@ -281,14 +282,13 @@ class RoadDetector(BaseEstimator):
         self.svc_ = svc
         return self
 
-    def _set_model(self, mean, scale, svm: KernelExpansion, bits: int, lut) -> None:
+    def _set_model(self, mean, scale, svm: KernelExpansion, bits: int, lut: ColourTable | None) -> None:
         self.feature_mean_ = np.asarray(mean, dtype=np.float64)
         self.feature_scale_ = np.asarray(scale, dtype=np.float64)
         self.svm_ = svm
         self.svc_ = None
         self.n_features_in_ = N_FEATURES
-        self.lut_bits_ = bits
-        self.lut_ = build_lut(self._decide_rgb, bits) if lut is None else lut
+        self.lut_ = ColourTable.build(self._decide_rgb, bits) if lut is None else lut
 
     def _decide_rgb(self, rgb: np.ndarray) -> np.ndarray:
         """Exact SVM decision (eq. 30) for RGB rows (N, 3) in [0, 1]; (N,) bool."""
@@ -319,7 +319,7 @@ class RoadDetector(BaseEstimator):
         if exact:
             mask = self._decide_rgb(_filtered_rgb(image, filters)).reshape(image.shape[:2])
         else:
-            mask = np.take(self.lut_, lut_index(_filtered_uint8_planes(image, filters), self.lut_bits_))
+            mask = self.lut_.lookup(_filtered_uint8_planes(image, filters))
         if self.morphology:
             mask = _fill_holes(_ego_component(mask))
         return mask
@@ -329,7 +329,8 @@ class RoadDetector(BaseEstimator):
         """Write the fitted model to ``path`` as a compressed ``.npz`` (no pickle).
 
         Arrays: ``support_vectors``, ``dual_coef``, ``intercept``, ``gamma``,
-        ``feature_mean``, ``feature_scale``, the bit-packed ``lut`` and ``lut_bits``;
+        ``feature_mean``, ``feature_scale``, and the lookup table (bit-packed ``lut``,
+        ``lut_bits``, ``lut_refined_cells``, bit-packed ``lut_fine``);
         ``meta`` is a JSON string with the format name/version and the parameters.
         The file is written to a temporary name and renamed, so it is never partial.
         """
@@ -347,8 +348,7 @@ class RoadDetector(BaseEstimator):
                 support_vectors=self.svm_.support_vectors, dual_coef=self.svm_.dual_coef,
                 intercept=np.float64(self.svm_.intercept), gamma=np.float64(self.svm_.gamma),
                 feature_mean=self.feature_mean_, feature_scale=self.feature_scale_,
-                lut=pack_lut(self.lut_), lut_bits=np.int64(self.lut_bits_),
-                meta=np.array(json.dumps(meta)),
+                meta=np.array(json.dumps(meta)), **self.lut_.to_arrays(),
             )
         os.replace(tmp, path)
 
@@ -369,7 +369,8 @@ class RoadDetector(BaseEstimator):
 
     @classmethod
     def _from_arrays(cls, arrays: dict, where: str) -> RoadDetector:
-        needed = {"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "lut", "lut_bits", "meta"}
+        needed = {"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "meta",
+                  "lut", "lut_bits", "lut_refined_cells", "lut_fine"}  # fmt: skip
         missing = sorted(needed - set(arrays))
         if missing:
             raise SimroadError(f"path: {where!r} is not a simroad road-detector file; missing {missing}.")
@@ -380,14 +381,13 @@ class RoadDetector(BaseEstimator):
             det = cls(**meta["params"])
             sv = np.asarray(arrays["support_vectors"], dtype=np.float64)
             coef = np.asarray(arrays["dual_coef"], dtype=np.float64).ravel()
-            bits = int(arrays["lut_bits"])
-            if sv.ndim != 2 or sv.shape[1] != N_FEATURES or len(coef) != len(sv) or not 4 <= bits <= 8:
+            if sv.ndim != 2 or sv.shape[1] != N_FEATURES or len(coef) != len(sv):
                 raise ValueError("inconsistent array shapes")
-            lut = unpack_lut(np.asarray(arrays["lut"], dtype=np.uint8), bits)
+            lut = ColourTable.from_arrays(arrays)
             svm = KernelExpansion(sv, coef, float(arrays["intercept"]), float(arrays["gamma"]))
         except (ValueError, TypeError, KeyError) as exc:
             raise SimroadError(f"path: {where!r} holds a damaged or incompatible road-detector model ({exc}).") from None
-        det._set_model(arrays["feature_mean"], arrays["feature_scale"], svm, bits, lut)
+        det._set_model(arrays["feature_mean"], arrays["feature_scale"], svm, lut.bits, lut)
         return det
 
     @classmethod

@@ -1,30 +1,39 @@
-"""The SVM tabulated over quantised colours, so a frame is classified by indexing.
+"""The SVM tabulated over colours, so a frame is classified by indexing.
 
 The decision depends only on the pixel's colour (see :mod:`simroad.detector.features`),
-so it is evaluated once for every cell of an RGB grid with ``2**bits`` levels per
-channel (at the cell centre) and stored as a bool table of ``2**(3 bits)`` entries.
-Classifying a 320x180 frame is then a handful of integer operations per pixel instead
-of a kernel expansion over hundreds of support vectors (paper eq. 30 per pixel costs
-~0.1-0.4 s a frame).
+so it is evaluated once per colour and stored. A full table of the 2**24 8-bit colours
+would cost 16.7 M kernel expansions to build; instead :class:`ColourTable` has two
+levels:
 
-The table only differs from the exact SVM for pixels whose colour lies within half a
-cell of the decision boundary; with 6 bits (cells of 4 grey levels) that is well under
-1 % of the pixels of a rendered frame (``benchmarks/bench_detector.py`` prints it).
+1. a coarse grid of ``2**bits`` levels per channel (262 144 cells for 6 bits), the
+   decision taken at each cell centre;
+2. for every cell near the decision boundary -- one whose decision differs from one of
+   its 26 neighbours' -- the decision for each of the ``(256 / 2**bits)**3`` 8-bit
+   colours inside it (64 for 6 bits).
+
+Cells away from the boundary hold one class throughout (the RBF decision function is
+smooth on the scale of a few grey levels), so the table reproduces the SVM exactly
+for 8-bit colours; the tests and ``benchmarks/bench_detector.py`` check that against
+scikit-learn's ``SVC.predict``. Classifying a 320x180 frame is then a few integer
+operations per pixel instead of a kernel expansion over hundreds of support vectors
+(paper eq. 30 per pixel costs ~0.1-0.4 s a frame).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage
 
-__all__ = ["build_lut", "lut_index", "lut_lookup", "pack_lut", "unpack_lut"]
+__all__ = ["ColourTable", "cell_centres", "lut_index"]
 
 _CHUNK = 1 << 16
 
 
 def cell_centres(bits: int) -> np.ndarray:
-    """RGB cell centres in [0, 1] for every table index, (2**(3 bits), 3) float64.
+    """RGB cell centres in [0, 1] for every coarse index, (2**(3 bits), 3) float64.
 
     Index ``(r << 2b) | (g << b) | b`` of the quantised levels, as in :func:`lut_index`.
     """
@@ -35,29 +44,8 @@ def cell_centres(bits: int) -> np.ndarray:
     return np.stack([r.ravel(), g.ravel(), b.ravel()], axis=1)
 
 
-def build_lut(decide: Callable[[np.ndarray], np.ndarray], bits: int) -> np.ndarray:
-    """Tabulate ``decide`` (RGB rows in [0, 1] -> bool) at every cell centre.
-
-    Parameters
-    ----------
-    decide : callable
-        Maps an ``(N, 3)`` float64 array of RGB colours in [0, 1] to ``(N,)`` bool.
-    bits : int
-        Levels per channel are ``2**bits`` (1-8).
-
-    Returns
-    -------
-    ndarray, bool, (2**(3 bits),)
-    """
-    centres = cell_centres(bits)
-    out = np.empty(len(centres), dtype=bool)
-    for s in range(0, len(centres), _CHUNK):
-        out[s : s + _CHUNK] = decide(centres[s : s + _CHUNK])
-    return out
-
-
 def lut_index(planes: list[np.ndarray], bits: int) -> np.ndarray:
-    """Table index of every pixel from its uint8 R, G, B planes (each (H, W)); (H, W) int32.
+    """Coarse index of every pixel from its uint8 R, G, B planes (each (H, W)); (H, W) int32.
 
     The planes may be strided views, e.g. ``[image[..., c] for c in range(3)]``.
     """
@@ -70,16 +58,106 @@ def lut_index(planes: list[np.ndarray], bits: int) -> np.ndarray:
     return idx
 
 
-def lut_lookup(table: np.ndarray, image: np.ndarray, bits: int) -> np.ndarray:
-    """Classify a uint8 RGB image (H, W, 3) by table lookup; (H, W) bool."""
-    return np.take(table, lut_index([image[..., c] for c in range(3)], bits))
+def _decide_chunked(decide: Callable[[np.ndarray], np.ndarray], rgb: np.ndarray) -> np.ndarray:
+    out = np.empty(len(rgb), dtype=bool)
+    for s in range(0, len(rgb), _CHUNK):
+        out[s : s + _CHUNK] = decide(rgb[s : s + _CHUNK])
+    return out
 
 
-def pack_lut(table: np.ndarray) -> np.ndarray:
-    """Bit-pack a bool table for storage (8 entries per byte), uint8."""
-    return np.packbits(table)
+def _fine_colours(cells: np.ndarray, bits: int) -> np.ndarray:
+    """All 8-bit colours inside the given coarse cells, (len(cells) * step**3, 3) in [0, 1]."""
+    step = 1 << (8 - bits)
+    mask = (1 << bits) - 1
+    base = np.stack([(cells >> (2 * bits)) & mask, (cells >> bits) & mask, cells & mask], axis=1) * step
+    off = np.stack(np.meshgrid(*(np.arange(step),) * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    return ((base[:, None, :] + off[None, :, :]).reshape(-1, 3)) / 255.0
 
 
-def unpack_lut(packed: np.ndarray, bits: int) -> np.ndarray:
-    """Inverse of :func:`pack_lut` for a table of ``2**(3 bits)`` entries."""
-    return np.unpackbits(packed, count=1 << (3 * bits)).astype(bool)
+@dataclass(frozen=True)
+class ColourTable:
+    """A colour classifier tabulated for all 8-bit RGB colours (two-level table).
+
+    Attributes
+    ----------
+    bits : int
+        Coarse levels per channel are ``2**bits`` (5-7).
+    coarse : ndarray, bool, (2**(3 bits),)
+        Decision at each coarse cell centre.
+    refined_cells : ndarray, int32, (n,)
+        Coarse indices of the cells stored at full 8-bit resolution, ascending.
+    fine : ndarray, bool, (n, (256 / 2**bits)**3)
+        Decision for each 8-bit colour of those cells, indexed by
+        ``(r % s) * s * s + (g % s) * s + (b % s)`` with ``s = 256 / 2**bits``.
+    """
+
+    bits: int
+    coarse: np.ndarray
+    refined_cells: np.ndarray
+    fine: np.ndarray
+    _flat: np.ndarray = field(init=False, repr=False, compare=False)
+    _offset: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        # Flattened for branch-free lookup: every coarse cell points at a block of
+        # step**3 entries of one array -- a shared all-False or all-True block for a
+        # uniform cell, its own block for a refined one -- and a pixel reads
+        # ``flat[offset[coarse index] + index within the cell]``.
+        size = 1 << (3 * (8 - self.bits))
+        flat = np.concatenate([np.zeros(size, bool), np.ones(size, bool), self.fine.reshape(-1)])
+        offset = self.coarse.astype(np.int32) * size
+        offset[self.refined_cells] = (2 + np.arange(len(self.refined_cells), dtype=np.int32)) * size
+        object.__setattr__(self, "_flat", flat)
+        object.__setattr__(self, "_offset", offset)
+
+    @classmethod
+    def build(cls, decide: Callable[[np.ndarray], np.ndarray], bits: int) -> ColourTable:
+        """Tabulate ``decide`` (RGB rows (N, 3) in [0, 1] -> (N,) bool)."""
+        coarse = _decide_chunked(decide, cell_centres(bits))
+        grid = coarse.reshape((1 << bits,) * 3)
+        near = ndimage.maximum_filter(grid, size=3, mode="nearest") != ndimage.minimum_filter(grid, size=3, mode="nearest")
+        cells = np.flatnonzero(near).astype(np.int32)
+        fine = _decide_chunked(decide, _fine_colours(cells, bits)).reshape(len(cells), -1)
+        return cls(bits, coarse, cells, fine)
+
+    def lookup(self, planes: list[np.ndarray]) -> np.ndarray:
+        """Classify pixels given as three uint8 (H, W) planes R, G, B; (H, W) bool."""
+        shift = 8 - self.bits
+        low = np.uint8((1 << shift) - 1)
+        r, g, b = planes
+        # Index within the cell, ((r % s) * s + (g % s)) * s + (b % s), s = 2**shift.
+        sub = (r & low).astype(np.int32)
+        sub <<= shift
+        sub |= g & low
+        sub <<= shift
+        sub |= b & low
+        sub += np.take(self._offset, lut_index(planes, self.bits))
+        return np.take(self._flat, sub)
+
+    def lookup_image(self, image: np.ndarray) -> np.ndarray:
+        """Classify a uint8 RGB image (H, W, 3); (H, W) bool."""
+        return self.lookup([image[..., c] for c in range(3)])
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """Bit-packed arrays for :func:`numpy.savez` (no pickle)."""
+        return {
+            "lut": np.packbits(self.coarse),
+            "lut_bits": np.int64(self.bits),
+            "lut_refined_cells": self.refined_cells,
+            "lut_fine": np.packbits(self.fine.reshape(-1)),
+        }
+
+    @classmethod
+    def from_arrays(cls, arrays: dict) -> ColourTable:
+        """Inverse of :meth:`to_arrays`; raises ValueError on inconsistent arrays."""
+        bits = int(arrays["lut_bits"])
+        if not 5 <= bits <= 7:
+            raise ValueError(f"lut_bits {bits} outside 5-7")
+        n_coarse = 1 << (3 * bits)
+        coarse = np.unpackbits(np.asarray(arrays["lut"], np.uint8), count=n_coarse).astype(bool)
+        cells = np.asarray(arrays["lut_refined_cells"], dtype=np.int32).ravel()
+        if cells.size and (cells.min() < 0 or cells.max() >= n_coarse):
+            raise ValueError("refined cell index out of range")
+        fine_size = 1 << (3 * (8 - bits))
+        fine = np.unpackbits(np.asarray(arrays["lut_fine"], np.uint8), count=len(cells) * fine_size)
+        return cls(bits, coarse, cells, fine.astype(bool).reshape(len(cells), fine_size))

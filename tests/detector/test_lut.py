@@ -6,7 +6,7 @@ import numpy as np
 
 from simroad.detector import KernelExpansion
 from simroad.detector.features import _features_f
-from simroad.detector.lut import cell_centres, lut_index, pack_lut, unpack_lut
+from simroad.detector.lut import ColourTable, cell_centres, lut_index
 
 
 def _svc_predict(det, rgb01: np.ndarray) -> np.ndarray:
@@ -22,30 +22,40 @@ def test_kernel_expansion_equals_svc_predict(small_detector):
     np.testing.assert_allclose(exp.decision_function(z), small_detector.svc_.decision_function(z), atol=1e-9)
 
 
-def test_table_equals_svc_predict_at_random_cells(small_detector):
-    det = small_detector
-    bits = det.lut_bits_
+def test_table_equals_svc_predict_on_random_colours(small_detector):
     rng = np.random.default_rng(1)
-    cells = rng.integers(0, 1 << (3 * bits), 4000)
-    np.testing.assert_array_equal(det.lut_[cells], _svc_predict(det, cell_centres(bits)[cells]))
+    colours = rng.integers(0, 256, (1, 50000, 3)).astype(np.uint8)
+    table = small_detector.lut_.lookup_image(colours)[0]
+    np.testing.assert_array_equal(table, _svc_predict(small_detector, colours[0] / 255.0))
 
 
-def test_table_agrees_with_svc_predict_on_random_pixels(small_detector, heldout_frames):
+def test_table_equals_svc_predict_on_frame_pixels_near_the_boundary(small_detector, heldout_frames):
     det = small_detector
-    rng = np.random.default_rng(2)
     pixels = np.concatenate([img.reshape(-1, 3) for img in heldout_frames[0]])
-    pixels = pixels[rng.choice(len(pixels), 20000, replace=False)]
-    planes = [pixels[:, c].reshape(1, -1) for c in range(3)]
-    table = det.lut_[lut_index(planes, det.lut_bits_)[0]]
-    exact = _svc_predict(det, pixels / 255.0)
-    assert (table == exact).mean() > 0.98  # only colours within half a cell of the boundary differ
+    pixels = np.unique(pixels, axis=0)[None]  # every distinct colour of 15 rendered frames
+    table = det.lut_.lookup_image(pixels)[0]
+    exact = _svc_predict(det, pixels[0] / 255.0)
+    np.testing.assert_array_equal(table, exact)
+    near = np.isin(lut_index([pixels[..., c] for c in range(3)], det.lut_.bits)[0], det.lut_.refined_cells)
+    assert near.any() and (~near).any()  # both levels of the table were exercised
 
 
-def test_lut_index_layout_and_packing():
+def test_two_level_table_on_a_known_decision():
+    def decide(rgb):  # road = dark and not green
+        return (rgb.sum(axis=1) < 1.2) & (rgb[:, 1] <= rgb[:, 0] + 0.05)
+
+    table = ColourTable.build(decide, 6)
+    rng = np.random.default_rng(2)
+    colours = rng.integers(0, 256, (1, 100000, 3)).astype(np.uint8)
+    np.testing.assert_array_equal(table.lookup_image(colours)[0], decide(colours[0] / 255.0))
+    again = ColourTable.from_arrays(table.to_arrays())
+    np.testing.assert_array_equal(again.coarse, table.coarse)
+    np.testing.assert_array_equal(again.fine, table.fine)
+    np.testing.assert_array_equal(again.refined_cells, table.refined_cells)
+
+
+def test_lut_index_layout():
     img = np.array([[[0, 0, 0], [255, 255, 255], [4, 8, 12]]], np.uint8)
     idx = lut_index([img[..., c] for c in range(3)], 6)
     assert idx.tolist() == [[0, (1 << 18) - 1, (1 << 12) + (2 << 6) + 3]]
-    centres = cell_centres(6)
-    np.testing.assert_allclose(centres[idx[0, 2]] * 255, [5.5, 9.5, 13.5])
-    table = np.random.default_rng(3).random(1 << 15) < 0.5
-    np.testing.assert_array_equal(unpack_lut(pack_lut(table), 5), table)
+    np.testing.assert_allclose(cell_centres(6)[idx[0, 2]] * 255, [5.5, 9.5, 13.5])

@@ -51,3 +51,28 @@ def test_remove_shadows_ignores_tiny_regions():
     out, mask = remove_shadows(image, min_area=16)
     assert not mask.any()
     np.testing.assert_array_equal(out, image)
+
+
+def test_remove_shadows_ignores_darker_but_redder_surfaces():
+    rng = np.random.default_rng(3)
+    image = np.clip(0.6 + rng.normal(0, 0.02, (60, 90, 1)) + rng.normal(0, 0.004, (60, 90, 3)), 0, 1)
+    image[20:45, 30:70] = np.clip(np.array([0.43, 0.33, 0.24]) + rng.normal(0, 0.02, (25, 40, 3)), 0, 1)  # dirt
+    image = image.astype(np.float32)
+    out, mask = remove_shadows(image)
+    assert not mask.any()  # darker than the pavement ring, but redder: not a shadow
+    np.testing.assert_array_equal(out, image)
+
+
+def test_gain_is_capped_by_the_illumination_ratio():
+    rng = np.random.default_rng(4)
+    lit = _asphalt(rng)
+    lit[:, 60:] = np.clip(0.75 + rng.normal(0, 0.08, (60, 30, 3)), 0, 1)  # a rough, bright neighbour
+    shadow = np.zeros(lit.shape[:2], bool)
+    shadow[20:45, 35:58] = True  # on asphalt; its buffer ring reaches the rough neighbour
+    image = lit.copy()
+    image[shadow] *= np.array([0.3, 0.35, 0.45], np.float32)
+    out, mask = remove_shadows(image)
+    assert mask[shadow].mean() > 0.9
+    # The mixed ring makes sigma_buff / sigma_k about 8; capped at mu_buff / mu_k the
+    # relit texture stays close to the true lit texture instead of 2-3 times rougher.
+    assert (out[shadow].std(axis=0) < 1.3 * lit[shadow].std(axis=0)).all()

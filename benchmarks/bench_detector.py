@@ -1,0 +1,177 @@
+"""The road detector per 320x180 frame on one core: lookup table vs the literal SVM.
+
+Rows:
+
+- the full detector with all three filters, classifying by the lookup table
+  (target <= 8 ms median), side by side with the paper's literal pipeline -- the
+  same filters, then scikit-learn's ``SVC.predict`` on every pixel's features, then
+  the same morphology (target: the table at least 50x faster);
+- each filter on its own;
+- how often the two pipelines agree, per pixel of the final masks (target >= 99.5 %),
+  on clean and spoiled frames;
+- the rain/snow filter's handling of grey asphalt: Xu et al. alone, ``min(I, q)`` and
+  the shipped ``min(I, q + tolerance)``, scored on rain and snow frames from
+  :mod:`simroad.noise` against the clean frame (mean absolute error in grey levels on
+  the pixels the weather changed and on the others) and by the detector's FNR/FPR.
+
+The detector is trained here with :func:`simroad.detector.train_default` on clean
+frames of racetrack worlds 1-8 (so that a scikit-learn ``SVC`` exists for the
+literal path); the test frames come from world 0.
+"""
+
+from __future__ import annotations
+
+import copy
+import os
+import sys
+import warnings
+
+import numpy as np
+from _harness import interleaved, one_core, table
+
+from simroad.detector import FILTERS, RoadDetector, train_default
+from simroad.detector.detector import _filtered_rgb
+from simroad.detector.features import _features_f
+from simroad.detector.morphology import _ego_component, _fill_holes
+from simroad.filters import remove_highlights, remove_rain_snow, remove_shadows
+from simroad.metrics import MaskScore
+
+TARGET_MS = 8.0
+NOISES = ("rain", "snow", "shadow", "glare")
+
+
+def _frames(seed: int, n: int):
+    """``n`` clean frames (rgb, road mask, camera, frame) along the racetrack of world ``seed``."""
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+    import gymnasium as gym
+    import highway_env  # noqa: F401
+
+    from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, WorldRaster
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        env = gym.make("racetrack-v0")
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    world = WorldRaster(env.unwrapped.road.network, rng)
+    cam = PinholeCamera(CameraConfig(width=320, height=180))
+    renderer = CameraRenderer(cam, world, rng)
+    lanes = env.unwrapped.road.network.lanes_list()
+    out = []
+    for k in range(n):
+        lane = lanes[k * 7 % len(lanes)]
+        s = float(rng.uniform(0, lane.length))
+        pose = (*lane.position(s, float(rng.uniform(-1, 1))), lane.heading_at(s))
+        frame = renderer.render(pose, [])
+        out.append((frame.rgb, frame.road_mask, cam, frame))
+    env.close()
+    return out
+
+
+def _literal(det: RoadDetector):
+    """The paper's pipeline: filters, features of every pixel, SVC.predict, morphology."""
+
+    def predict(image: np.ndarray) -> np.ndarray:
+        z = (_features_f(_filtered_rgb(image, FILTERS)) - det.feature_mean_) / det.feature_scale_
+        mask = det.svc_.predict(z).astype(bool).reshape(image.shape[:2])
+        return _fill_holes(_ego_component(mask))
+
+    return predict
+
+
+def _spoil(frames, noise: str, severity: float, *, particles_only: bool = False):
+    """The frames under ``noise``: (noisy, road mask, pixels the weather changed)."""
+    import dataclasses
+
+    from simroad.noise import NoiseContext, make_weather
+
+    params = None
+    if particles_only:  # drops or flakes alone: no haze, wet road or settled snow
+        from simroad.noise.rain import RainParams
+        from simroad.noise.snow import SnowParams
+
+        base = {"rain": RainParams, "snow": SnowParams}[noise].from_severity(severity)
+        off = {"haze_scale": 0.0, "wetness": 0.0, "water_film": 0.0} if noise == "rain" else {"haze_scale": 0.0, "settle": 0.0}
+        params = {noise: dataclasses.replace(base, **off)}
+    weather = make_weather(noise, severity=severity, params=params)
+    weather.reset(np.random.default_rng(1))
+    out = []
+    for k, (rgb, gt, cam, frame) in enumerate(frames):
+        ctx = NoiseContext(camera=cam, depth=frame.depth, material=frame.material, time_s=k / 15, dt=1 / 15, ego_speed=15.0)
+        noisy, masks = weather.apply(rgb, ctx)
+        out.append((noisy, gt, masks.get(noise, np.zeros(gt.shape, bool))))
+    return out
+
+
+def _agreement(det, literal, images) -> float:
+    same = [np.mean(det.predict(img) == literal(img)) for img in images]
+    return 100.0 * float(np.mean(same))
+
+
+def _rain_variants(det, clean, noise: str) -> str:
+    """The rain/snow filter's variants on the drops or flakes alone, and the detector
+    after them on the full weather (haze, wet road, settled snow included).
+
+    Errors are mean absolute differences to the clean frame in grey levels, on the
+    pixels the particles changed and on the others; mask rates count the ground only
+    (``camera.ground_valid``), so an overcast sky does not dominate them.
+    """
+    particles = _spoil(clean, noise, 0.7, particles_only=True)
+    full = _spoil(clean, noise, 0.7)
+    lines = [f"{'variant':<28} {'err on particles':>17} {'err elsewhere':>14} {'FNR %':>7} {'FPR %':>7}"]
+    variants = {"no filter": "off", "Xu et al. only (q)": None, "min(I, q)": 0.0, "min(I, q + 0.05) [shipped]": 0.05}
+    plain = copy.deepcopy(det).set_params(filters=())
+    for name, tol in variants.items():
+        run = (lambda x: x) if tol == "off" else (lambda x, tol=tol: remove_rain_snow(x, tolerance=tol))
+        err_in, err_out, score = [], [], MaskScore()
+        for (noisy, _, changed), (noisy_full, gt, _), (rgb, _, cam, _) in zip(particles, full, clean):
+            err = np.abs(run(noisy).astype(np.int16) - rgb).mean(axis=-1)
+            err_in.append(err[changed].mean() if changed.any() else 0.0)
+            err_out.append(err[~changed].mean())
+            score.update(plain.predict(run(noisy_full)), gt, valid=cam.ground_valid)
+        s = score.pooled()
+        lines.append(f"{name:<28} {np.mean(err_in):>17.2f} {np.mean(err_out):>14.2f} {100 * s['fnr']:>7.2f} {100 * s['fpr']:>7.2f}")
+    return "\n".join(lines)
+
+
+def main(repeats: int = 20) -> dict[str, dict[str, np.ndarray]]:
+    """Print the tables; return the raw timings (seconds per call)."""
+    one_core()
+    train = [f for seed in range(1, 9) for f in _frames(seed, 4)]
+    det = train_default([f[0] for f in train], [f[1] for f in train], rng=0).set_params(filters=FILTERS)
+    literal = _literal(det)
+    clean = _frames(0, 6)
+    image = clean[0][0]
+    results = {}
+    times = interleaved({
+        "detector, 3 filters, lookup table": lambda: det.predict(image),
+        "detector, 3 filters, per-pixel SVC.predict": lambda: literal(image),
+    }, repeats=repeats)  # fmt: skip
+    print(table(f"full detector: 320x180, one core, {len(det.svm_.dual_coef)} support vectors", times,
+                baseline="detector, 3 filters, per-pixel SVC.predict",
+                target_ms={"detector, 3 filters, lookup table": TARGET_MS}), flush=True)  # fmt: skip
+    ratio = np.median(times["detector, 3 filters, per-pixel SVC.predict"]) / np.median(times["detector, 3 filters, lookup table"])
+    print(f"speed ratio (literal / table): {ratio:.0f}x  (target >= 50x: {'ok' if ratio >= 50 else 'MISSED'})")
+    results["detector"] = times
+    stages = interleaved({
+        "remove_shadows": lambda: remove_shadows(image),
+        "remove_rain_snow": lambda: remove_rain_snow(image),
+        "remove_highlights": lambda: remove_highlights(image),
+        "detector, no filters, lookup table": lambda: copy.copy(det).set_params(filters=()).predict(image),
+        "detector, 3 filters, lookup table": lambda: det.predict(image),
+    }, repeats=10 * repeats)  # fmt: skip
+    print(table("stages: 320x180, one core", stages, target_ms={"detector, 3 filters, lookup table": TARGET_MS}), flush=True)
+    results["stages"] = stages
+    print("\n## agreement of the final masks, table vs per-pixel SVC.predict (target >= 99.5 %)")
+    print(f"clean frames (6): {_agreement(det, literal, [c[0] for c in clean]):.3f} %")
+    for noise in NOISES:
+        spoiled = _spoil(clean, noise, 0.7)
+        print(f"{noise} frames (6, severity 0.7): {_agreement(det, literal, [s[0] for s in spoiled]):.3f} %", flush=True)
+    print("\n## rain/snow filter on grey asphalt (6 rendered frames of world 0, severity 0.7)")
+    for noise in ("rain", "snow"):
+        print(f"\n{noise}:\n" + _rain_variants(det, clean, noise), flush=True)
+    return results
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 20)
