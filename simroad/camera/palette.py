@@ -50,19 +50,45 @@ def _jitter(rgb: tuple[int, int, int], amount: float, rng: np.random.Generator) 
     return tuple(int(v) for v in np.clip(base + shift, 0, 255))
 
 
+#: Minimum luma difference (0-255) between asphalt and a shoulder or a non-green
+#: roadside. Asphalt's albedo is about 0.05-0.10, gravel, concrete and dry soil about
+#: 0.2-0.3: real asphalt is always markedly darker than what borders it.
+MIN_LUMA_MARGIN = 35.0
+
+
+def _luma(rgb) -> float:
+    r, g, b = (float(v) for v in rgb)
+    return 0.299 * r + 0.587 * g + 0.114 * b
+
+
+def _brighter_than(rgb: tuple[int, int, int], floor: float) -> tuple[int, int, int]:
+    """Lift ``rgb`` uniformly until its luma reaches ``floor``."""
+    lift = max(0.0, floor - _luma(rgb))
+    return tuple(int(v) for v in np.clip(np.asarray(rgb, dtype=float) + lift, 0, 255))
+
+
 def draw_palette(rng: np.random.Generator, roadside: str | None = None) -> Palette:
-    """Draw a palette for one episode from ``rng``; ``roadside`` forces the kind."""
+    """Draw a palette for one episode from ``rng``; ``roadside`` forces the kind.
+
+    Asphalt is drawn dark grey (luma ~50-85); the shoulder, and a gravel, dirt or
+    pavement roadside, are kept at least :data:`MIN_LUMA_MARGIN` brighter (grass is
+    told apart by its hue).
+    """
     kind = roadside if roadside is not None else str(rng.choice(ROADSIDE_KINDS))
     rs_rgb, rs_j = _ROADSIDE_RGB[kind]
     sh_kind = str(rng.choice(tuple(_SHOULDER_RGB)))
     sh_rgb, sh_j = _SHOULDER_RGB[sh_kind]
-    grey = rng.uniform(70, 105)
+    grey = rng.uniform(50, 85)
     tint = rng.normal(0.0, 3.0, size=3)
     asphalt = tuple(int(v) for v in np.clip(grey + tint, 0, 255))
+    floor = _luma(asphalt) + MIN_LUMA_MARGIN
+    roadside_rgb = _jitter(rs_rgb, rs_j, rng)
+    if kind != "grass":
+        roadside_rgb = _brighter_than(roadside_rgb, floor)
     return Palette(
         roadside=kind,
-        roadside_rgb=_jitter(rs_rgb, rs_j, rng),
-        shoulder_rgb=_jitter(sh_rgb, sh_j, rng),
+        roadside_rgb=roadside_rgb,
+        shoulder_rgb=_brighter_than(_jitter(sh_rgb, sh_j, rng), floor),
         asphalt_rgb=asphalt,
         marking_rgb=_jitter((228, 228, 222), 6, rng),
         shoulder_width_m=float(rng.uniform(0.8, 2.0)),
@@ -89,6 +115,7 @@ def make_texture(
     f = np.fft.fftfreq(size)
     fx, fy = np.meshgrid(f, f)
     lowpass = np.exp(-((fx**2 + fy**2) * (blotch_scale_px**2) * 2.0 * np.pi**2))
+    lowpass[0, 0] = 0.0  # zero mean: the texture stays centred on its palette colour
     coarse = np.real(np.fft.ifft2(np.fft.fft2(white) * lowpass))
     coarse /= coarse.std() + 1e-9
     lum = grain * fine + blotch * coarse.astype(np.float32)

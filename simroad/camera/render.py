@@ -119,6 +119,7 @@ class CameraRenderer:
         self._r1 = int(rows_all[0]) if len(rows_all) else c.height
         self._mixed_sky = self._sky[self._r0 : self._r1]
         self._shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(self._r0)], [0.0, 0.0, 1.0]])
+        self._mip_bands = _mip_bands(camera, self._r0)
         # Footprint of the visible ground in the ego frame, for the window request.
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
@@ -150,7 +151,12 @@ class CameraRenderer:
             rgba = cv2.warpPerspective(win.rgba, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE)
             cv2.warpPerspective(win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE)
             ground = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
-            np.greater_equal(rgba[..., 3], 128, out=road[r0:])
+            np.greater_equal(rgba[..., 3], 128, out=road[r0:])  # exact GT from the full-resolution SDF
+            for level, a, b in self._mip_bands:  # far rows: colour from a coarser mip level
+                S = np.array([[2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5], [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5], [0.0, 0.0, 1.0]])
+                Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(a - r0)], [0.0, 0.0, 1.0]])
+                band = cv2.warpPerspective(win.level(level), Ma, (c.width, b - a), flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE)
+                cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=ground[a - r0 : b - r0])
             fr = self._fade_rows
             if fr.stop > fr.start:
                 band = ground[fr.start - r0 : fr.stop - r0].astype(np.float32)
@@ -197,6 +203,34 @@ class CameraRenderer:
                 cv2.fillConvexPoly(material, pts, VEHICLE, lineType=cv2.LINE_8, shift=4)
                 d = float(np.min(np.hypot(poly3[:, 0] - cpos[0], poly3[:, 1] - cpos[1])))
                 cv2.fillConvexPoly(depth, pts, d, lineType=cv2.LINE_8, shift=4)
+
+
+def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:
+    """Row bands ``(level, first_row, end_row)`` whose colour comes from mip level >= 1.
+
+    A pixel row at ground distance d covers about ``d**2 / (f h)`` metres in depth and
+    ``d / f`` across; the level is log2 of the geometric mean of both footprints in
+    texels, so that a pixel averages the ground it sees, as a camera pixel does.
+    """
+    c = camera.config
+    col = c.width // 2
+    d = camera.depth[:, col].astype(np.float64)
+    levels = np.zeros(c.height, dtype=int)
+    for v in range(r0, c.height - 1):
+        if not (np.isfinite(d[v]) and np.isfinite(d[v + 1])):
+            continue
+        along = abs(d[v] - d[v + 1]) / c.texel_m
+        across = d[v] / camera.K[0, 0] / c.texel_m
+        levels[v] = int(np.clip(np.round(np.log2(max(1e-9, math.sqrt(along * across)))), 0, max_level))
+    bands, v = [], r0
+    while v < c.height:
+        w = v
+        while w < c.height and levels[w] == levels[v]:
+            w += 1
+        if levels[v] > 0:
+            bands.append((int(levels[v]), v, w))
+        v = w
+    return bands
 
 
 def _box_faces(base: np.ndarray, height: float) -> list[tuple[np.ndarray, float]]:

@@ -134,6 +134,16 @@ class Window:
         t = self.texel_m
         return np.array([[1 / t, 0, -self.x0 / t - 0.5], [0, 1 / t, -self.y0 / t - 0.5], [0, 0, 1.0]])
 
+    def level(self, k: int) -> np.ndarray:
+        """The colour (``rgba``) downsampled ``k`` times with ``cv2.pyrDown`` (cached).
+
+        Level-``k`` texel ``x_k`` sits at level-0 texel ``(x_k + 0.5) * 2**k - 0.5``.
+        """
+        levels = self.__dict__.setdefault("_levels", [self.rgba])
+        while len(levels) <= k:
+            levels.append(cv2.pyrDown(levels[-1]))
+        return levels[k]
+
     def contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> bool:
         h, w = self.material.shape
         return (

@@ -127,7 +127,13 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         seeds = range(args.seed_start, args.seed_start + args.seeds)
         frames = collect_frames(scenarios=args.scenario.split(","), seeds=seeds, frames_per_seed=args.frames, noise=args.noise, severity=args.severity)
-    rows, frows = evaluate_frames(frames, settings)
+    factory = None
+    if args.model:
+        from simroad.detector import RoadDetector
+
+        base = RoadDetector.load(args.model)
+        factory = lambda f: RoadDetector.load(args.model).set_params(filters=f) if f != tuple(base.filters) else base  # noqa: E731
+    rows, frows = evaluate_frames(frames, settings, detector_factory=factory)
     if args.json:
         print(json.dumps({"detector": rows, "filter_masks": frows}))
     else:
@@ -173,7 +179,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--driver", default="detector", help="detector (default) or oracle")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
     p.add_argument("--steps", type=int, default=300, help="maximum policy steps at 5 Hz (default: 300)")
-    p.add_argument("--route-m", type=float, default=None, help="route length in m (default: cruise speed x steps x 0.2 s)")
+    p.add_argument("--route-m", type=float, default=None, help="route length in m (default: one racetrack lap or 1 km, capped at 80%% of cruise speed x steps x 0.2 s)")
     p.add_argument("--video", default=None, help="write an .mp4 or .gif of the episode")
     p.add_argument("--json", action="store_true", help="print one JSON object with the record")
     p.add_argument("--require", action="append", default=[], metavar="KEY<=VALUE", help="a gate such as 'offroad_fraction<=0.01' (any record key; <, <=, >, >=); repeatable")
@@ -217,6 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, default=20, help="frames per scenario and seed (default: 20)")
     p.add_argument("--images", help="folder of real images (instead of rendered frames)")
     p.add_argument("--masks", help="folder of their road masks (same file names, or road_N for frame_N)")
+    p.add_argument("--model", help="a detector .npz to evaluate instead of the shipped one")
     p.add_argument("--figure", help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=_cmd_evaluate)

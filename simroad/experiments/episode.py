@@ -85,8 +85,8 @@ def format_filters(filters: Sequence[str]) -> str:
 
 @dataclass(frozen=True)
 class EpisodeSpec:
-    """What one episode runs. ``route_m`` defaults to the distance the scenario's
-    cruise speed covers in ``steps`` policy steps."""
+    """What one episode runs. ``route_m`` defaults to :func:`default_route_m`: one
+    racetrack lap or 1 km, shortened to what the step budget can cover."""
 
     scenario: str = "racetrack"
     noise: str = "clear"
@@ -143,8 +143,7 @@ def run_episode(
     pilot = make_driver(driver if driver is not None else spec.driver, env, filters=spec.filters, detector=detector)
     obs, info = env.reset(seed=spec.seed)
     pilot.reset()
-    cruise = SCENARIO_CONTROL[spec.scenario]["target_speed_m_s"]
-    route_m = spec.route_m if spec.route_m is not None else cruise * spec.steps * env.dt
+    route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
     masks = _mask_scorer()
     valid = env.camera.ground_valid
@@ -191,6 +190,31 @@ def run_episode(
     record["step_ms_median"] = float(np.median(step_ms)) if step_ms else 0.0
     record["wall_s"] = time.perf_counter() - t_start
     return {k: record[k] for k in RECORD_KEYS}
+
+
+def scenario_route_m(env) -> float:
+    """The scenario's route from the ego's start: one lap of the ego's lane ring on the
+    racetrack (following highway-env's lane successors), 1 km elsewhere."""
+    net = env.highway_env.road.network
+    start = env.vehicle.lane_index
+    index, total = start, 0.0
+    for _ in range(200):
+        total += float(net.get_lane(index).length)
+        nxt = net.next_lane(index, position=env.vehicle.position, np_random=np.random.default_rng(0))
+        if nxt is None or nxt[:2] == index[:2]:
+            return 1000.0  # not a loop
+        index = nxt
+        if index == start:
+            return total
+    return 1000.0
+
+
+def default_route_m(env, steps: int) -> float:
+    """The route an episode is scored against (route completion): the scenario route
+    (:func:`scenario_route_m`), shortened to what 80 % of the scenario's cruise speed
+    covers in ``steps`` policy steps when the step budget cannot cover it."""
+    cruise = SCENARIO_CONTROL[env.config.scenario]["target_speed_m_s"]
+    return min(scenario_route_m(env), 0.8 * cruise * steps * env.dt)
 
 
 def _mask_record(masks) -> dict[str, float]:
