@@ -229,6 +229,13 @@ class RoadDetector(BaseEstimator):
     :mod:`simroad.detector.features` for the measurements behind that choice.
     ``fit`` applies the configured filters to the training images first, so the SVM
     sees what ``predict`` will see.
+
+    Measured with the provisional shipped model (trained by :func:`train_default` on
+    192 clean racetrack frames of worlds 1-24) on 144 clean frames of the held-out
+    worlds 100-123: pooled FNR 2.1 %, FPR 0.3 % without filters; FNR 2.8 %, FPR 0.2 %
+    with all three. 320x180 on one core: about 1 ms without filters and 5-7 ms with
+    all three, against ~0.4 s for the literal per-pixel ``SVC.predict``
+    (``benchmarks/bench_detector.py``).
     """
 
     def __init__(
@@ -386,7 +393,9 @@ class RoadDetector(BaseEstimator):
             lut = ColourTable.from_arrays(arrays)
             svm = KernelExpansion(sv, coef, float(arrays["intercept"]), float(arrays["gamma"]))
         except (ValueError, TypeError, KeyError) as exc:
-            raise SimroadError(f"path: {where!r} holds a damaged or incompatible road-detector model ({exc}).") from None
+            raise SimroadError(
+                f"path: {where!r} holds a damaged or incompatible road-detector model ({exc})."
+            ) from None
         det._set_model(arrays["feature_mean"], arrays["feature_scale"], svm, lut.bits, lut)
         return det
 

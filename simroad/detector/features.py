@@ -11,14 +11,16 @@ degrees are the same colour) and undefined for grey pixels; an RBF kernel on raw
 ``H`` would call red-orange and red-magenta far apart and turn grey-pixel noise into
 huge hue jumps, while ``S e^{iH}`` is continuous and goes to 0 on grey.
 
-Measured on clean rendered racetrack frames (training seeds 1-16, held-out seeds
+Measured on clean rendered racetrack frames (training worlds 1-16, held-out worlds
 100-123, 6 poses each, 6000 balanced training pixels, ego-component morphology):
 plain per-pixel HSI gave pooled FNR 2.0 % / FPR 0.2 %; HSI of a 3x3 Gaussian-, 3x3
 median- or 5x5 box-smoothed image was worse (FNR 2.2-5.7 %), because smoothing blurs
 the road border where the remaining errors are; adding the image row as a feature
 helped before morphology but not after it. So no smoothing and no position: the
 decision depends on the colour only, which is also what makes the lookup table of
-:mod:`simroad.detector.lut` possible.
+:mod:`simroad.detector.lut` possible. The price: anything road-coloured is road --
+an overcast, grey-white sky under snow looks like lane paint, and a road washed out
+by sun glare looks like pavement.
 """
 
 from __future__ import annotations

@@ -115,7 +115,8 @@ class ColourTable:
         """Tabulate ``decide`` (RGB rows (N, 3) in [0, 1] -> (N,) bool)."""
         coarse = _decide_chunked(decide, cell_centres(bits))
         grid = coarse.reshape((1 << bits,) * 3)
-        near = ndimage.maximum_filter(grid, size=3, mode="nearest") != ndimage.minimum_filter(grid, size=3, mode="nearest")
+        hi = ndimage.maximum_filter(grid, size=3, mode="nearest")
+        near = hi != ndimage.minimum_filter(grid, size=3, mode="nearest")
         cells = np.flatnonzero(near).astype(np.int32)
         fine = _decide_chunked(decide, _fine_colours(cells, bits)).reshape(len(cells), -1)
         return cls(bits, coarse, cells, fine)

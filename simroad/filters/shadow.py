@@ -69,42 +69,75 @@ def ndi(image: np.ndarray) -> np.ndarray:
     return _ndi_planes(to_planes(image))
 
 
-def _region_stats(labels: np.ndarray, planes: list[np.ndarray], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Count (n,), mean (n, 3) and std (n, 3) of the planes per label 0..n-1 (label 0 unused)."""
+def _label_stats(labels: np.ndarray, planes: list[np.ndarray], n: int, *, std: bool):
+    """Count (n,), mean (n, C) and, if asked, std (n, C) of C planes per label 0..n-1.
+
+    Label 0 (background) is not counted; only labelled pixels are visited.
+    """
     idx = np.flatnonzero(labels)
-    lab = labels.ravel()[idx]
+    lab = labels.reshape(-1)[idx]
     count = np.bincount(lab, minlength=n).astype(np.float64)
     safe = np.maximum(count, 1.0)
-    mean = np.empty((n, 3))
-    sq = np.empty((n, 3))
+    mean, sq = np.zeros((n, len(planes))), np.zeros((n, len(planes)))
     for c, p in enumerate(planes):
-        pix = p.ravel()[idx].astype(np.float64)
+        pix = p.reshape(-1)[idx].astype(np.float64)
         mean[:, c] = np.bincount(lab, pix, minlength=n) / safe
-        sq[:, c] = np.bincount(lab, pix * pix, minlength=n) / safe
-    return count, mean, np.sqrt(np.maximum(sq - mean**2, 0.0))
+        if std:
+            sq[:, c] = np.bincount(lab, pix * pix, minlength=n) / safe
+    return count, mean, (np.sqrt(np.maximum(sq - mean**2, 0.0)) if std else None)
 
 
-def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
-    """Find the regions to correct: ``(labels, ok, gain (n, 3), offset (n, 3))``, or None."""
+def _keep(labels: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """``labels`` with every label not in ``ok`` set to 0."""
+    return np.where(ok[labels], labels, 0)
+
+
+def _candidate_regions(planes, min_ndi, min_area, ring):
+    """Otsu on NDI, regions of at least ``min_area`` px and their buffer rings (label images)."""
     index = _ndi_planes(planes)
     candidate = index > max(otsu_threshold(index), min_ndi)
     if not candidate.any():
         return None
     n, labels, stats, _ = cv2.connectedComponentsWithStats(candidate.view(np.uint8), connectivity=8)
+    big = stats[:, cv2.CC_STAT_AREA] >= min_area
+    big[0] = False
+    if not big.any():
+        return None
+    labels = np.where(big[labels], labels, 0)
     # Buffer ring: the largest neighbouring label reaches each pixel within `ring`
-    # pixels (grey dilation of the label image); shadow pixels themselves are excluded.
-    # Where two rings overlap, the pixel goes to the region with the larger label.
-    k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * ring + 1, 2 * ring + 1))
-    ring_labels = cv2.dilate(labels.astype(np.float32), k).astype(np.int32)
+    # pixels (grey dilation of the label image by a square, which OpenCV does
+    # separably); shadow pixels themselves are excluded. Where two rings overlap, the
+    # pixel goes to the region with the larger label.
+    dtype = np.uint16 if n <= np.iinfo(np.uint16).max else np.float32
+    ring_labels = cv2.dilate(labels.astype(dtype), np.ones((2 * ring + 1, 2 * ring + 1), np.uint8))
+    ring_labels = ring_labels.astype(np.int32)
     ring_labels[candidate] = 0
-    _, mu_k, sd_k = _region_stats(labels, planes, n)
-    cnt_b, mu_b, sd_b = _region_stats(ring_labels, planes, n)
+    return n, labels, ring_labels
+
+
+def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
+    """Find the regions to correct: ``(labels, ok, gain (n, 3), offset (n, 3))``, or None.
+
+    The tests run from cheap to dear: area, then mean intensity against the ring, then
+    colour, then the spreads of the regions that are left (usually none on a clean
+    frame).
+    """
+    found = _candidate_regions(planes, min_ndi, min_area, ring)
+    if found is None:
+        return None
+    n, labels, ring_labels = found
+    grey = [channel_sum(planes)]
+    cnt_k, v_k, _ = _label_stats(labels, grey, n, std=False)
+    cnt_b, v_b, _ = _label_stats(ring_labels, grey, n, std=False)
+    ok = (cnt_k >= min_area) & (cnt_b >= min_area) & (v_k[:, 0] <= max_darkness * v_b[:, 0])
+    if not ok.any():
+        return None
+    labels, ring_labels = _keep(labels, ok), _keep(ring_labels, ok)
+    _, mu_k, sd_k = _label_stats(labels, planes, n, std=True)
+    _, mu_b, sd_b = _label_stats(ring_labels, planes, n, std=True)
     ratio = mu_k / np.maximum(mu_b, 1e-6)  # (n, 3) region / ring, per channel
-    dark_ratio = mu_k.mean(axis=1) / np.maximum(mu_b.mean(axis=1), 1e-6)
     # Skylight is bluer than sunlight: a shadow keeps relatively more blue than red.
-    bluish = ratio[:, 2] >= ratio[:, 0]
-    ok = (stats[:, cv2.CC_STAT_AREA] >= min_area) & (cnt_b >= min_area) & (dark_ratio <= max_darkness) & bluish
-    ok[0] = False
+    ok &= ratio[:, 2] >= ratio[:, 0]
     if not ok.any():
         return None
     # Texture contrast scales with the illumination, so the gain sigma_buff / sigma_k is
@@ -156,7 +189,8 @@ def remove_shadows(
     min_area : int, optional
         Smallest shadow region, and smallest buffer ring, in pixels (>= 1).
     ring : int, optional
-        Width of the buffer ring around each region in pixels, in [1, 64].
+        Width of the buffer ring around each region in pixels (a square
+        neighbourhood), in [1, 64].
     max_darkness : float, optional
         A region is corrected only if its mean intensity is at most this fraction of
         its ring's, in (0, 1], and if it keeps relatively more blue than red (its

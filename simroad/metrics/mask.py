@@ -154,7 +154,8 @@ class MaskScore:
         """Flat JSON-ready dict: ``n_frames``, the counts ``tp fp fn tn``, the pooled
         rates ``fnr fpr precision recall f1 iou`` and their per-frame means
         ``mean_fnr``, ... ``mean_iou``."""
-        out: dict[str, float | int] = {"n_frames": self.n_frames, "tp": self.tp, "fp": self.fp, "fn": self.fn, "tn": self.tn}
+        out: dict[str, float | int] = {"n_frames": self.n_frames}
+        out.update(tp=self.tp, fp=self.fp, fn=self.fn, tn=self.tn)
         out.update(self.pooled())
         out.update({f"mean_{k}": v for k, v in self.per_frame_mean().items()})
         return out

@@ -18,13 +18,13 @@ def guided_loop(guide: np.ndarray, src: np.ndarray, r: int, eps: float) -> np.nd
     guide, src = guide.astype(np.float64), src.astype(np.float64)
     h, w = guide.shape
     a, b = np.zeros((h, w)), np.zeros((h, w))
-    for k in range(h):
-        for l in range(w):
-            win = _window(k, l, r, h, w)
+    for ky in range(h):
+        for kx in range(w):
+            win = _window(ky, kx, r, h, w)  # the window w_k centred on pixel k
             gi, pi = guide[win], src[win]
             mu, var, pbar = gi.mean(), gi.var(), pi.mean()
-            a[k, l] = ((gi * pi).mean() - mu * pbar) / (var + eps)
-            b[k, l] = pbar - a[k, l] * mu
+            a[ky, kx] = ((gi * pi).mean() - mu * pbar) / (var + eps)
+            b[ky, kx] = pbar - a[ky, kx] * mu
     q = np.zeros((h, w))
     for i in range(h):
         for j in range(w):

@@ -17,7 +17,8 @@ def test_ndi_hand_worked_pixels():
 
 
 def _asphalt(rng, shape=(60, 90)):
-    return np.clip(0.4 + rng.normal(0, 0.02, shape + (1,)) + rng.normal(0, 0.004, shape + (3,)), 0, 1).astype(np.float32)
+    img = 0.4 + rng.normal(0, 0.02, shape + (1,)) + rng.normal(0, 0.004, shape + (3,))
+    return np.clip(img, 0, 1).astype(np.float32)
 
 
 def test_remove_shadows_relights_a_cast_shadow():

@@ -36,7 +36,8 @@ def test_valid_restricts_the_count():
 
 def test_rates_from_counts_and_undefined_rates():
     r = rates_from_counts(tp=4, fp=2, fn=2, tn=4)
-    assert r == pytest.approx({"fnr": 1 / 3, "fpr": 1 / 3, "precision": 2 / 3, "recall": 2 / 3, "f1": 8 / 12, "iou": 0.5})
+    expect = {"fnr": 1 / 3, "fpr": 1 / 3, "precision": 2 / 3, "recall": 2 / 3, "f1": 8 / 12, "iou": 0.5}
+    assert r == pytest.approx(expect)
     fnr, fpr = error_rates(np.zeros((2, 2), bool), np.zeros((2, 2), bool))  # no road at all
     assert math.isnan(fnr) and fpr == 0.0
 
