@@ -20,7 +20,8 @@ SHORT = 6
 
 @pytest.mark.parametrize("scenario, noise", list(itertools.product(SCENARIO_NAMES, NOISE_NAMES)))
 def test_short_headless_episode_of_every_scenario_and_noise(scenario, noise):
-    rec = run_episode(EpisodeSpec(scenario=scenario, noise=noise, severity=0.6, filters=("shadow", "rain_snow", "light"), steps=SHORT, seed=1))
+    spec = EpisodeSpec(scenario=scenario, noise=noise, severity=0.6, filters=("shadow", "rain_snow", "light"), steps=SHORT, seed=1, route_m=1e4)
+    rec = run_episode(spec)
     assert tuple(rec) == RECORD_KEYS
     assert rec["steps"] == SHORT and rec["noise"] == noise
     assert 0.0 <= rec["fnr"] <= 1.0 and 0.0 <= rec["fpr"] <= 1.0
@@ -32,6 +33,11 @@ def test_same_seed_same_record():
     a, b = run_episode(spec), run_episode(spec)
     timing = {"detect_ms_median", "step_ms_median", "wall_s"}
     assert {k: v for k, v in a.items() if k not in timing} == {k: v for k, v in b.items() if k not in timing}
+
+
+def test_episode_ends_when_the_route_is_complete():
+    rec = run_episode(EpisodeSpec(scenario="highway", driver="oracle", steps=100, traffic=False, route_m=60.0))
+    assert rec["route_completion"] == 1.0 and rec["steps"] < 100
 
 
 def test_oracle_has_perfect_mask_metrics():
@@ -46,12 +52,12 @@ def test_custom_callable_driver():
         calls.append(obs.shape)
         return np.array([0.0, 0.0], dtype=np.float32)
 
-    rec = run_episode(EpisodeSpec(scenario="highway", steps=5, traffic=False), driver=policy)
+    rec = run_episode(EpisodeSpec(scenario="highway", steps=5, traffic=False, route_m=1e4), driver=policy)
     assert rec["driver"] == "custom" and len(calls) == 5
 
 
 def test_require_gate_exit_codes(capsys):
-    args = ["episode", "--scenario", "highway", "--driver", "oracle", "--steps", "5", "--no-traffic", "--json"]
+    args = ["episode", "--scenario", "highway", "--driver", "oracle", "--steps", "5", "--route-m", "1000", "--no-traffic", "--json"]
     assert main(args + ["--require", "offroad_fraction<=0.01"]) == 0
     assert main(args + ["--require", "fnr>0.5", "--require", "steps<3"]) == 1
     err = capsys.readouterr().err
