@@ -77,7 +77,7 @@ def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...]) -> list[n
     out = planes
     for name in filters:
         if name == "rain_snow":
-            out = _rain_snow_planes(out, 2, 1e-3, 0.05, 2)
+            out = _rain_snow_planes(out, 2, 1e-3, 0.02, 2)
         elif name == "light":
             out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
         else:
@@ -230,12 +230,12 @@ class RoadDetector(BaseEstimator):
     ``fit`` applies the configured filters to the training images first, so the SVM
     sees what ``predict`` will see.
 
-    Measured with the provisional shipped model (trained by :func:`train_default` on
-    192 clean racetrack frames of worlds 1-24) on 144 clean frames of the held-out
-    worlds 100-123: pooled FNR 2.1 %, FPR 0.3 % without filters; FNR 2.8 %, FPR 0.2 %
-    with all three. 320x180 on one core: about 1 ms without filters and 5-7 ms with
-    all three, against ~0.4 s for the literal per-pixel ``SVC.predict``
-    (``benchmarks/bench_detector.py``).
+    Measured with the provisional shipped model (``simroad train-detector``: clean
+    frames of every scenario, worlds 0-7) on 144 clean racetrack frames of the
+    held-out worlds 100-123: pooled FNR 1.8 %, FPR 0.3 % without filters; FNR 2.6 %,
+    FPR 0.3 % with all three. 320x180 on one core: about 1 ms without filters and
+    5-7 ms with all three, against 0.25-0.4 s (growing with the number of support
+    vectors) for the literal per-pixel ``SVC.predict`` (``benchmarks/bench_detector.py``).
     """
 
     def __init__(

@@ -11,8 +11,9 @@ degrees are the same colour) and undefined for grey pixels; an RBF kernel on raw
 ``H`` would call red-orange and red-magenta far apart and turn grey-pixel noise into
 huge hue jumps, while ``S e^{iH}`` is continuous and goes to 0 on grey.
 
-Measured on clean rendered racetrack frames (training worlds 1-16, held-out worlds
-100-123, 6 poses each, 6000 balanced training pixels, ego-component morphology):
+Measured during development on clean rendered racetrack frames (an earlier palette
+with lighter asphalt; training worlds 1-16, held-out worlds 100-123, 6 poses each,
+6000 balanced training pixels, ego-component morphology):
 plain per-pixel HSI gave pooled FNR 2.0 % / FPR 0.2 %; HSI of a 3x3 Gaussian-, 3x3
 median- or 5x5 box-smoothed image was worse (FNR 2.2-5.7 %), because smoothing blurs
 the road border where the remaining errors are; adding the image row as a feature

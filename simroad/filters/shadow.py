@@ -12,17 +12,21 @@ The paper's eq. 18 prints this garbled (without ``sigma_k``); this is the standa
 form of the method it cites.
 
 Otsu always splits a histogram, even one without shadows (on a clean frame it
-separates, say, brown dirt or green grass from grey asphalt), so a region is only
-corrected if it is also physically shadow-like: large enough, with a non-empty buffer
-ring, clearly darker than that ring (mean intensity ratio at most ``max_darkness``)
-and *bluer* relative to it -- skylight is bluer than sunlight, so the region/ring
-ratio of blue must be at least that of red. Dirt next to pavement is darker but
-redder; grass next to asphalt is not darker. Measured on 18 clean rendered frames of
-three worlds: no pixel is changed. On the same frames under :mod:`simroad.noise`
-shadows (severity 0.7) the corrected mask has precision 1.00 and recall 0.80 against
-the true shadow mask, and the detector's ground FPR drops from 2.9 % to 1.7 % (FNR
-1.3 % -> 1.7 %). Without the blue test the filter "relit" 3.5 % of the clean pixels
-(dirt shoulders, with gains up to 8) and doubled the clean-frame FPR.
+separates, say, brown dirt or green grass from grey asphalt, or the dark asphalt itself
+from a bright shoulder), so a region is only corrected if it is also physically
+shadow-like: large enough, with a non-empty buffer ring, clearly darker than that
+ring (mean intensity ratio at most ``max_darkness``) and darkened the way skylight
+darkens: skylight is bluer than sunlight and its spectrum rises smoothly towards
+blue, so the region/ring ratios must grow from red to green to blue. Dirt next to
+pavement is darker but redder; grass next to asphalt is not darker; a purple-tinted
+asphalt next to a grey shoulder dips in green.
+
+Measured on clean racetrack frames (144 frames of worlds 100-123): 0.02 % of the
+pixels changed and the detector's FNR/FPR unchanged (1.8 % / 0.3 %); with only the
+"bluer than red" test 18 % of the pixels were "relit" -- whole roads -- and the
+FNR rose to 8.9 %. On 48 frames under :mod:`simroad.noise` shadows (severity 0.7)
+the corrected mask has precision 0.97 and recall 0.67 against the true shadow mask,
+and the detector's ground FPR drops from 6.4 % to 5.9 % (FNR 1.25 % -> 1.4 %).
 """
 
 from __future__ import annotations
@@ -136,8 +140,9 @@ def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
     _, mu_k, sd_k = _label_stats(labels, planes, n, std=True)
     _, mu_b, sd_b = _label_stats(ring_labels, planes, n, std=True)
     ratio = mu_k / np.maximum(mu_b, 1e-6)  # (n, 3) region / ring, per channel
-    # Skylight is bluer than sunlight: a shadow keeps relatively more blue than red.
-    ok &= ratio[:, 2] >= ratio[:, 0]
+    # Skylight is bluer than sunlight and its spectrum rises smoothly towards blue:
+    # a shadow keeps more blue than green and more green than red.
+    ok &= (ratio[:, 0] <= ratio[:, 1]) & (ratio[:, 1] <= ratio[:, 2])
     if not ok.any():
         return None
     # Texture contrast scales with the illumination, so the gain sigma_buff / sigma_k is
@@ -193,9 +198,8 @@ def remove_shadows(
         neighbourhood), in [1, 64].
     max_darkness : float, optional
         A region is corrected only if its mean intensity is at most this fraction of
-        its ring's, in (0, 1], and if it keeps relatively more blue than red (its
-        blue/ring-blue ratio is at least its red/ring-red ratio: skylight is bluer than
-        sunlight).
+        its ring's, in (0, 1], and if its region/ring ratios grow from red to green to
+        blue (skylight is bluer than sunlight).
 
     Returns
     -------
