@@ -125,12 +125,27 @@ def _atomic_write(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def _one_thread() -> None:
+    """Pool initializer: a sweep parallelises across episodes, so each episode
+    process uses one OpenCV thread (no oversubscription of the cores)."""
+    import cv2
+
+    cv2.setNumThreads(1)
+
+
 def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterator[dict]:
     if workers == 1:
-        for spec in specs:
-            yield cell_fn(spec)
+        import cv2
+
+        before = cv2.getNumThreads()
+        _one_thread()
+        try:
+            for spec in specs:
+                yield cell_fn(spec)
+        finally:
+            cv2.setNumThreads(before)
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    with ProcessPoolExecutor(max_workers=workers, initializer=_one_thread) as pool:
         pending = {pool.submit(cell_fn, s) for s in specs[: 2 * workers]}
         queue = list(specs[2 * workers :])
         while pending:
@@ -139,6 +154,11 @@ def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterato
                 yield fut.result()
                 if queue:
                     pending.add(pool.submit(cell_fn, queue.pop(0)))
+
+
+def _ray_cell(cell_fn: Callable, spec: EpisodeSpec) -> dict:
+    _one_thread()
+    return cell_fn(spec)
 
 
 def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: Callable) -> Iterator[dict]:
@@ -151,8 +171,8 @@ def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: C
         ray.init(address=address, num_cpus=None if address else workers, include_dashboard=False, log_to_driver=False)
         started = True
     try:
-        remote = ray.remote(num_cpus=1)(cell_fn)
-        pending = [remote.remote(s) for s in specs]
+        remote = ray.remote(num_cpus=1)(_ray_cell)
+        pending = [remote.remote(cell_fn, s) for s in specs]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             for ref in done:
