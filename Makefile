@@ -4,10 +4,11 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: all demo test bench figures clean help
+.PHONY: all demo paper test bench figures clean help
 
 help:
-	@echo "make demo     set up .venv and run the main job (writes runs/demo)"
+	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
+	@echo "make paper    the paper's experiment at full size (about 30 min on 2 cores; runs/paper)"
 	@echo "make test     set up .venv with test extras and run the test suite"
 	@echo "make bench    run the benchmarks (medians and side-by-side ratios)"
 	@echo "make figures  regenerate the pictures in docs/"
@@ -20,16 +21,22 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m simroad.experiments.demo --out runs/demo
+	$(BIN)/simroad ablate --config experiments/demo.toml
+	$(BIN)/python -m simroad.experiments.demo --out runs/demo/videos
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2
+
+paper: $(STAMP)
+	$(BIN)/simroad ablate --config experiments/paper.toml
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
 figures: $(STAMP)
 	$(BIN)/simroad figure camera --out docs/camera.png
+	$(BIN)/simroad figure weather --out docs/weather.png
+	$(BIN)/simroad evaluate-detector --seeds 1 --frames 2 --figure docs/qualitative.png
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache
