@@ -1,0 +1,26 @@
+"""Closed-loop acceptance, clear weather, with traffic: a full racetrack lap and five
+winding roads of 1 km, driven by the oracle and by the shipped detector."""
+
+from __future__ import annotations
+
+import pytest
+
+from simroad.experiments.episode import EpisodeSpec, run_episode
+
+ROADS = [("racetrack", 0, None)] + [("winding", seed, 1000.0) for seed in range(1, 6)]
+
+
+@pytest.mark.parametrize("scenario, seed, route_m", ROADS)
+def test_oracle_drives_cleanly(scenario, seed, route_m):
+    rec = run_episode(EpisodeSpec(scenario=scenario, seed=seed, steps=600, driver="oracle", route_m=route_m))
+    assert rec["route_completion"] == 1.0  # a full lap / the whole kilometre
+    assert rec["offroad_steps"] == 0 and not rec["collided"]
+    assert rec["lateral_rmse_m"] <= 0.3
+
+
+@pytest.mark.parametrize("scenario, seed, route_m", ROADS)
+def test_detector_driver_stays_on_the_road(scenario, seed, route_m):
+    rec = run_episode(EpisodeSpec(scenario=scenario, seed=seed, steps=600, driver="detector", route_m=route_m))
+    assert rec["offroad_fraction"] <= 0.01
+    assert rec["route_completion"] >= 0.95
+    assert not rec["collided"]
