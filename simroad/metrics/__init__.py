@@ -1,7 +1,9 @@
-"""Scoring: road-mask metrics (paper eqs. 32-33), pooled and per frame."""
+"""Scoring: road-mask metrics (paper eqs. 32-33), pooled and per frame, and driving
+safety from highway-env state."""
 
 from __future__ import annotations
 
 from simroad.metrics.mask import MaskScore, confusion, error_rates, rates_from_counts
+from simroad.metrics.safety import PENALTIES, SafetyScore, footprint_corners
 
-__all__ = ["MaskScore", "confusion", "error_rates", "rates_from_counts"]
+__all__ = ["PENALTIES", "MaskScore", "SafetyScore", "confusion", "error_rates", "footprint_corners", "rates_from_counts"]
