@@ -54,3 +54,22 @@ def table(title: str, times: dict[str, np.ndarray], *, baseline: str | None = No
     if baseline:
         lines.append(f"(ratio = median of '{baseline}' / median of the row; >1 means the row is faster)")
     return "\n".join(lines)
+
+
+def bare_racetrack_step() -> Callable[[], None]:
+    """One bare highway-env ``racetrack-v0`` step (Kinematics observation, no
+    rendering), resetting when the car crashes or leaves the road: the baseline
+    every simroad cost is compared with."""
+    import gymnasium as gym
+    import highway_env  # noqa: F401
+
+    bare = gym.make("racetrack-v0", config={"observation": {"type": "Kinematics"}, "other_vehicles": 1}).unwrapped
+    bare.reset(seed=0)
+    action = np.zeros(1, dtype=np.float32)
+
+    def step() -> None:
+        bare.step(action)
+        if bare.vehicle.crashed or not bare.vehicle.on_road:
+            bare.reset(seed=0)
+
+    return step

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from _harness import interleaved, one_core, table
+from _harness import bare_racetrack_step, interleaved, one_core, table
 
 
 def main() -> None:
@@ -21,8 +21,6 @@ def main() -> None:
     big.reset(seed=0)
     hw = gym.make("racetrack-v0", render_mode="rgb_array", config={"offscreen_rendering": True}).unwrapped
     hw.reset(seed=0)
-    bare = gym.make("racetrack-v0", config={"observation": {"type": "Kinematics"}}).unwrapped
-    bare.reset(seed=0)
 
     poses = []
     for _ in range(40):  # poses along a lap, re-used by every candidate
@@ -41,14 +39,9 @@ def main() -> None:
     def hw_render():
         hw.render()
 
-    def hw_step():
-        bare.step(np.zeros(1, dtype=np.float32))
-        if bare.vehicle.crashed or not bare.vehicle.on_road:
-            bare.reset(seed=0)
-
     times = interleaved(
         {
-            "highway-env env.step() (bare, racetrack)": hw_step,
+            "highway-env env.step() (bare, racetrack)": bare_racetrack_step(),
             "highway-env env.render() (600x600 top-down)": hw_render,
             "simroad camera frame + GT 320x180": cam(small),
             "simroad camera frame + GT 1280x720": cam(big),

@@ -5,13 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from _harness import interleaved, one_core, table
+from _harness import bare_racetrack_step, interleaved, one_core, table
 
 
 def main() -> None:
     one_core()
-    import gymnasium as gym
-    import highway_env  # noqa: F401
 
     from simroad.control.drivers import make_driver
     from simroad.envs import RoadCamEnv
@@ -21,8 +19,6 @@ def main() -> None:
     driver = make_driver("detector", env, filters=("shadow", "rain_snow", "light"))
     driver.reset()
     state = {"obs": obs, "info": info}
-    bare = gym.make("racetrack-v0", config={"observation": {"type": "Kinematics"}, "other_vehicles": 1}).unwrapped
-    bare.reset(seed=0)
 
     def full_step():
         action = driver(state["obs"], state["info"])
@@ -39,14 +35,9 @@ def main() -> None:
     def camera():
         env._observe(crashed=False)
 
-    def hw_step():
-        bare.step(np.zeros(1, dtype=np.float32))
-        if bare.vehicle.crashed or not bare.vehicle.on_road:
-            bare.reset(seed=0)
-
     times = interleaved(
         {
-            "highway-env env.step() (bare, racetrack)": hw_step,
+            "highway-env env.step() (bare, racetrack)": bare_racetrack_step(),
             "camera frame + GT (RoadCam observation)": camera,
             "perception + control (detector, all filters)": perception_control,
             "full detector-driver step (all of the above)": full_step,
