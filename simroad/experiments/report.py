@@ -26,7 +26,7 @@ import numpy as np
 
 from simroad._validation import SimroadError
 
-__all__ = ["METRICS", "build_report", "summarise"]
+__all__ = ["METRICS", "build_report", "headline", "summarise"]
 
 #: Summary column -> record key (collision rate is the mean of ``collided``).
 METRICS = {
@@ -108,6 +108,39 @@ def _write_md(rows: list[dict], path: Path) -> None:
     path.write_text(text)
 
 
+def _write_md_with_headline(records: list[dict], rows: list[dict], path: Path) -> None:
+    _write_md(rows, path)
+    body = path.read_text().split("\n", 2)[2]
+    intro = "# Ablation summary\n\n## At a glance (means over scenarios and seeds)\n\n" + headline(records) + "\n\n## Per cell\n"
+    path.write_text(intro + body)
+
+
+def headline(records: list[dict]) -> str:
+    """A compact markdown table: per noise and severity (pooled over scenarios and
+    seeds), FNR / FPR for every filter set, and off-road fraction and driving score for
+    no filters, all filters and the oracle."""
+    ok = [r for r in records if not r.get("error")]
+    cells = sorted({(r["noise"], r["severity"]) for r in ok}, key=lambda c: (c[0] != "clear", c[0], c[1]))
+    filters = sorted({r["filters"] for r in ok if r["driver"] == "detector"}, key=lambda f: (f != "none", f == "shadow+rain_snow+light", f))
+    short = {"shadow+rain_snow+light": "all"}
+    head = ["noise", "severity"] + [f"FNR / FPR % ({short.get(f, f)})" for f in filters]
+    head += ["off-road % (none / all / oracle)", "driving score (none / all / oracle)"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for noise, sev in cells:
+        rs = [r for r in ok if r["noise"] == noise and r["severity"] == sev]
+        row = [noise, f"{sev:g}"]
+        for f in filters:
+            det = [r for r in rs if r["driver"] == "detector" and r["filters"] == f]
+            row.append(f"{100 * np.mean([r['fnr'] for r in det]):.1f} / {100 * np.mean([r['fpr'] for r in det]):.1f}" if det else "–")
+        groups = [[r for r in rs if r["driver"] == "detector" and r["filters"] == "none"],
+                  [r for r in rs if r["driver"] == "detector" and r["filters"] == "shadow+rain_snow+light"],
+                  [r for r in rs if r["driver"] == "oracle"]]  # fmt: skip
+        row.append(" / ".join(f"{100 * np.mean([r['offroad_fraction'] for r in g]):.1f}" if g else "–" for g in groups))
+        row.append(" / ".join(f"{np.mean([r['driving_score'] for r in g]):.2f}" if g else "–" for g in groups))
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
 def _error_rates_figure(records: list[dict], path: Path) -> None:
     import matplotlib
 
@@ -184,7 +217,7 @@ def build_report(directory: str | os.PathLike) -> dict[str, Path]:
     rows = summarise(records)
     out = {"summary.csv": d / "summary.csv", "summary.md": d / "summary.md", "error_rates.png": d / "error_rates.png", "safety.png": d / "safety.png"}
     _write_csv(rows, out["summary.csv"])
-    _write_md(rows, out["summary.md"])
+    _write_md_with_headline(records, rows, out["summary.md"])
     _error_rates_figure(records, out["error_rates.png"])
     _safety_figure(records, out["safety.png"])
     (d / "summary.json").write_text(json.dumps(rows, indent=1, default=str))
