@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "check_bool",
     "SimroadError",
     "check_choice",
     "check_finite_number",
@@ -49,6 +50,13 @@ def check_choice(name: str, value: Any, valid: Iterable[str]) -> str:
             f"{', '.join(repr(v) for v in valid)}.{hint}"
         )
     return value
+
+
+def check_bool(name: str, value: Any) -> bool:
+    """Check a plain True/False flag (numpy bools accepted) and return it."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise SimroadError(f"{name}: expected True or False, got {value!r} ({type(value).__name__}).")
+    return bool(value)
 
 
 def check_finite_number(name: str, value: Any) -> float:

@@ -146,6 +146,30 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_filter_effect(args: argparse.Namespace) -> int:
+    import json
+
+    from simroad.detector import RoadDetector
+    from simroad.experiments.filter_effect import filter_effect_table, format_filter_effect
+
+    seeds = range(args.seed_start, args.seed_start + args.seeds)
+    cache: dict = {}
+    out = []
+    for severity in (float(s) for s in args.severity.split(",")):
+        for variant in args.variant.split(","):
+            factory = lambda f, v=variant: RoadDetector.pretrained(filters=f, filter_variant=v)  # noqa: E731
+            rows = filter_effect_table(seeds=seeds, frames=args.frames, severity=severity, noises=args.noises.split(","),
+                                       detector_factory=factory, cache=cache)  # fmt: skip
+            out.append({"severity": severity, "variant": variant, "rows": rows})
+            if not args.json:
+                print(f"severity {severity:g}, {variant} filters")
+                print(format_filter_effect(rows))
+                print()
+    if args.json:
+        print(json.dumps(out, default=list))
+    return 0
+
+
 def _cmd_figure(args: argparse.Namespace) -> int:
     from simroad.experiments import figures
 
@@ -227,6 +251,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--figure", help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG")
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=_cmd_evaluate)
+
+    p = sub.add_parser("filter-effect", help="does each filter earn its place? FNR/FPR with and without it on its weather", description="Render held-out worlds of all three scenarios under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels.")
+    p.add_argument("--severity", default="0.7", help="comma-separated severities in [0, 1] (default: 0.7)")
+    p.add_argument("--noises", default="shadow,rain,snow,glare", help="comma-separated noises (default: all four)")
+    p.add_argument("--variant", default="improved", help="comma-separated filter variants: improved, paper (default: improved)")
+    p.add_argument("--seeds", type=int, default=5, help="number of held-out seeds (default: 5)")
+    p.add_argument("--seed-start", type=int, default=100, help="first seed (default: 100)")
+    p.add_argument("--frames", type=int, default=20, help="frames per scenario and seed (default: 20)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=_cmd_filter_effect)
 
     p = sub.add_parser("figure", help="draw a documentation figure", description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).")
     p.add_argument("what", choices=("camera", "weather"), help="which figure")

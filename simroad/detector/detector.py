@@ -34,16 +34,19 @@ from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.svm import KernelExpansion
 from simroad.filters._common import clip_planes, from_planes, planes_to_uint8, to_planes
-from simroad.filters.light import _highlights_planes
+from simroad.filters.light import _glare_planes, _highlights_planes
 from simroad.filters.rain_snow import _rain_snow_planes
 from simroad.filters.shadow import _shadows_planes
 
-__all__ = ["FILTERS", "MIN_IMAGE_SIZE", "RoadDetector", "apply_filters", "default_model_path", "train_default"]
+__all__ = ["FILTERS", "FILTER_VARIANTS", "MIN_IMAGE_SIZE", "RoadDetector", "apply_filters", "default_model_path", "train_default"]
 
 #: Filter names, in the order the pipeline applies them: rain and snow first (their
 #: bright streaks would otherwise pass for highlights in the dark channel), then
 #: highlights, then shadows (NDI needs the true value V).
 FILTERS = ("rain_snow", "light", "shadow")
+#: How the filters are run: ``"paper"`` as §III describes them, ``"improved"`` with the
+#: corrections that make each one lower FNR + FPR on its weather (see README).
+FILTER_VARIANTS = ("improved", "paper")
 #: Smallest image side the detector accepts, in pixels.
 MIN_IMAGE_SIZE = 8
 _IMAGE_DTYPES = ("uint8", "float32", "float64")
@@ -72,21 +75,32 @@ def _check_filters(filters: object) -> tuple[str, ...]:
     return tuple(f for f in FILTERS if f in names)
 
 
-def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...]) -> list[np.ndarray]:
+def _check_variant(variant: object) -> str:
+    check_choice("filter_variant", variant, FILTER_VARIANTS)
+    return str(variant)
+
+
+def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...], variant: str = "improved") -> list[np.ndarray]:
     """Run the filters (default settings) on float32 planes in [0, 1]; new planes in [0, 1]."""
     out = planes
     for name in filters:
         if name == "rain_snow":
-            out = _rain_snow_planes(out, 2, 1e-3, 0.02, 2)
+            if variant == "paper":
+                out = _rain_snow_planes(out, 2, 1e-3, 0.02, 2)
+            else:
+                out = _rain_snow_planes(out, 3, 1e-3, 0.07, 2, achromatic=True, protect=5)
         elif name == "light":
-            out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
+            if variant == "paper":
+                out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
+            else:
+                out, _ = _glare_planes(out, 3, 241, 0.01, 0.98, 0.8, 2.2)
         else:
             out, _ = _shadows_planes(out, -1.0, 16, 5, 0.8)
         clip_planes(out)
     return out
 
 
-def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS) -> np.ndarray:
+def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, variant: str = "improved") -> np.ndarray:
     """Apply a subset of the paper's filters with their default settings.
 
     Parameters
@@ -96,6 +110,9 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS) -> np.nda
     filters : sequence of str
         Any subset of ``("shadow", "rain_snow", "light")``; applied in the order of
         :data:`FILTERS` whatever the order given.
+    variant : {"improved", "paper"}, optional
+        ``"paper"`` runs the filters as §III describes them; ``"improved"`` (default)
+        with the corrections the detector uses (see :data:`FILTER_VARIANTS`).
 
     Returns
     -------
@@ -103,9 +120,10 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS) -> np.nda
     """
     image = check_image("image", image, dtype=_IMAGE_DTYPES, channels=3)
     names = _check_filters(filters)
+    variant = _check_variant(variant)
     if not names:
         return image.copy()
-    return from_planes(_filter_planes(to_planes(image), names), image.dtype)
+    return from_planes(_filter_planes(to_planes(image), names, variant), image.dtype)
 
 
 def _check_training_set(images: object, masks: object) -> tuple[list[np.ndarray], list[np.ndarray]]:
@@ -130,13 +148,14 @@ def _check_training_set(images: object, masks: object) -> tuple[list[np.ndarray]
 
 
 def _sample_pixels(
-    images: list[np.ndarray], masks: list[np.ndarray], filters: tuple[str, ...], n_max: int, rng: np.random.Generator
+    images: list[np.ndarray], masks: list[np.ndarray], filters: tuple[str, ...], n_max: int, rng: np.random.Generator,
+    variant: str = "improved",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Balanced random pixels: up to ``n_max / (2 N)`` road and non-road pixels per image."""
     per = max(1, -(-n_max // (2 * len(images))))
     xs, ys = [], []
     for img, msk in zip(images, masks):
-        rgb = _filtered_rgb(img, filters)
+        rgb = _filtered_rgb(img, filters, variant)
         flat = msk.ravel()
         for label in (False, True):
             idx = np.flatnonzero(flat == label)
@@ -154,17 +173,18 @@ def _sample_pixels(
     return x, y
 
 
-def _filtered_rgb(image: np.ndarray, filters: tuple[str, ...]) -> np.ndarray:
+def _filtered_rgb(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> np.ndarray:
     """Filtered colours of every pixel as (H * W, 3) float64 rows in [0, 1]."""
     if filters:
-        return np.stack([p.ravel() for p in _filter_planes(to_planes(image), filters)], axis=1).astype(np.float64)
+        planes = _filter_planes(to_planes(image), filters, variant)
+        return np.stack([p.ravel() for p in planes], axis=1).astype(np.float64)
     return image.reshape(-1, 3) / (255.0 if image.dtype == np.uint8 else 1.0)
 
 
-def _filtered_uint8_planes(image: np.ndarray, filters: tuple[str, ...]) -> list[np.ndarray]:
+def _filtered_uint8_planes(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> list[np.ndarray]:
     """Filtered image as three uint8 (H, W) planes, the lookup table's input."""
     if filters:
-        return planes_to_uint8(_filter_planes(to_planes(image), filters))
+        return planes_to_uint8(_filter_planes(to_planes(image), filters, variant))
     if image.dtype != np.uint8:
         return planes_to_uint8([np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)])
     return [image[..., c] for c in range(3)]
@@ -208,6 +228,9 @@ class RoadDetector(BaseEstimator):
         way (see :class:`~simroad.detector.lut.ColourTable`). 6 builds fastest.
     random_state : int, optional
         Seed of the pixel sampling.
+    filter_variant : {"improved", "paper"}, optional
+        ``"paper"`` runs the filters as §III describes them, ``"improved"`` (default)
+        with the corrections measured in the README (see :func:`apply_filters`).
 
     Attributes
     ----------
@@ -248,8 +271,10 @@ class RoadDetector(BaseEstimator):
         max_samples: int = 8000,
         lut_bits: int = 6,
         random_state: int = 0,
+        filter_variant: str = "improved",
     ) -> None:
         self.filters = filters
+        self.filter_variant = filter_variant
         self.morphology = morphology
         self.C = C
         self.gamma = gamma
@@ -278,7 +303,8 @@ class RoadDetector(BaseEstimator):
         bits = check_int_in_range("lut_bits", self.lut_bits, 5, 7)
         rng = normalize_rng(self.random_state, name="random_state")
         imgs, msks = _check_training_set(images, masks)
-        x, y = _sample_pixels(imgs, msks, filters, n_max, rng)
+        variant = _check_variant(self.filter_variant)
+        x, y = _sample_pixels(imgs, msks, filters, n_max, rng, variant)
         feats = _features_f(x)
         mean = feats.mean(axis=0)
         scale = feats.std(axis=0)
@@ -323,10 +349,11 @@ class RoadDetector(BaseEstimator):
         check_is_fitted(self, "lut_", msg=_NOT_FITTED)
         image = check_image("image", image, dtype=_IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
         filters = _check_filters(self.filters)
+        variant = _check_variant(self.filter_variant)
         if exact:
-            mask = self._decide_rgb(_filtered_rgb(image, filters)).reshape(image.shape[:2])
+            mask = self._decide_rgb(_filtered_rgb(image, filters, variant)).reshape(image.shape[:2])
         else:
-            mask = self.lut_.lookup(_filtered_uint8_planes(image, filters))
+            mask = self.lut_.lookup(_filtered_uint8_planes(image, filters, variant))
         if self.morphology:
             mask = _fill_holes(_ego_component(mask))
         return mask
@@ -400,11 +427,14 @@ class RoadDetector(BaseEstimator):
         return det
 
     @classmethod
-    def pretrained(cls, filters: Sequence[str] = (), *, morphology: bool = True) -> RoadDetector:
+    def pretrained(
+        cls, filters: Sequence[str] = (), *, morphology: bool = True, filter_variant: str = "improved"
+    ) -> RoadDetector:
         """The model shipped with simroad (``simroad/data/road_detector.npz``).
 
         It was trained on clean rendered frames without filters (see
-        :func:`train_default`); ``filters`` and ``morphology`` choose how it runs.
+        :func:`train_default`); ``filters``, ``morphology`` and ``filter_variant``
+        (``"improved"`` or the paper's ``"paper"``) choose how it runs.
         """
         path = default_model_path()
         if not path.is_file():
@@ -413,7 +443,10 @@ class RoadDetector(BaseEstimator):
                 "train one with `simroad train-detector`."
             )
         det = cls.load(path)
-        det.set_params(filters=tuple(_check_filters(filters)), morphology=bool(morphology))
+        det.set_params(
+            filters=tuple(_check_filters(filters)), morphology=bool(morphology),
+            filter_variant=_check_variant(filter_variant),
+        )  # fmt: skip
         return det
 
 

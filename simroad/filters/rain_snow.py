@@ -48,9 +48,10 @@ markings; full resolution costs twice the time for a similar result).
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
-from simroad._validation import check_in_range, check_int_in_range
+from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
 from simroad.filters._common import (
     channel_max,
     channel_min,
@@ -65,7 +66,8 @@ __all__ = ["remove_rain_snow"]
 
 
 def _rain_snow_planes(
-    planes: list[np.ndarray], radius: int, eps: float, tolerance: float | None, subsample: int = 1
+    planes: list[np.ndarray], radius: int, eps: float, tolerance: float | None, subsample: int = 1,
+    achromatic: bool = False, protect: int = 0,
 ) -> list[np.ndarray]:
     """Core of :func:`remove_rain_snow` on float32 planes in [0, 1]; new planes, not clipped."""
     guide_f = channel_max(planes) - channel_min(planes)  # Xu et al.: I_f = max_c I - min_c I
@@ -76,6 +78,16 @@ def _rain_snow_planes(
     j_g = _guided_planes(guide_f, [grey], radius, eps, subsample=subsample)[0]
     guide_g = guide_f + j_g
     guide_g *= np.float32(0.5)  # eq. 22: I_g = (I_f + J_g) / 2
+    if achromatic and tolerance is not None:
+        # Drops and flakes add (nearly) white light: remove the excess of the grey
+        # image over its rain-free estimate from all three channels alike, so a
+        # surface keeps its own chroma (a faint blue snow cover stays blue).
+        q_g = _guided_planes(guide_g, [grey], radius, eps, subsample=subsample)[0]
+        if protect > 1:  # bright structures wider than a particle (lane paint) are kept
+            np.maximum(q_g, cv2.morphologyEx(grey, cv2.MORPH_OPEN, np.ones((protect, protect), np.uint8)), out=q_g)
+        q_g += np.float32(tolerance)
+        excess = np.maximum(grey - q_g, 0.0)
+        return [p - excess for p in planes]
     q = _guided_planes(guide_g, planes, radius, eps, subsample=subsample)
     if tolerance is None:
         return q
@@ -93,6 +105,8 @@ def remove_rain_snow(
     eps: float = 1e-3,
     tolerance: float | None = 0.02,
     subsample: int = 2,
+    achromatic: bool = False,
+    protect: int = 0,
 ) -> np.ndarray:
     """Remove rain streaks and snowflakes (paper eqs. 21-22, after Xu et al. 2012).
 
@@ -118,6 +132,18 @@ def remove_rain_snow(
         Compute the guided-filter coefficients on an image this many times smaller
         (He & Sun's fast guided filter), in [1, 4]; 1 is the exact filter. The
         default 2 halves the cost (about 1.5 ms instead of 3 ms at 320x180).
+    achromatic : bool, optional
+        The improved variant: instead of ``min(I, q + tolerance)`` per channel,
+        subtract ``max(0, I_g - q_g - tolerance)`` (grey image ``I_g`` of eq. 10, ``q_g``
+        its rain-free estimate) from all three channels alike. Drops and flakes add
+        nearly white light, so this removes them while every surface keeps its
+        chroma; per channel, the faint blue of a snow cover was flattened to grey and
+        the detector took the snow for road (FPR 5 % -> 35 % at snow severity 0.9).
+        Needs a ``tolerance``.
+    protect : int, optional
+        With ``achromatic``: side of a square opening of ``I_g`` (0 or 1: off); bright
+        structures that survive it -- wider than a particle, such as lane paint --
+        are kept (``q_g`` is raised to the opening). In [0, 31].
 
     Returns
     -------
@@ -130,4 +156,9 @@ def remove_rain_snow(
     if tolerance is not None:
         tolerance = check_in_range("tolerance", tolerance, 0.0, 1.0)
     subsample = check_int_in_range("subsample", subsample, 1, 4)
-    return from_planes(_rain_snow_planes(to_planes(image), radius, eps, tolerance, subsample), image.dtype)
+    achromatic = check_bool("achromatic", achromatic)
+    protect = check_int_in_range("protect", protect, 0, 31)
+    if achromatic and tolerance is None:
+        raise SimroadError("tolerance: the achromatic variant needs a tolerance (e.g. 0.04), got None.")
+    out = _rain_snow_planes(to_planes(image), radius, eps, tolerance, subsample, achromatic, protect)
+    return from_planes(out, image.dtype)

@@ -37,7 +37,8 @@ def test_every_filter_subset_runs_and_morphology_switches(small_detector, heldou
 def test_init_only_stores_and_clone_round_trips():
     det = RoadDetector(("shadow", "light"), morphology=False, C=3.0, max_samples=99, lut_bits=5, random_state=4)
     assert det.get_params() == {"filters": ("shadow", "light"), "morphology": False, "C": 3.0, "gamma": "scale",
-                                "max_samples": 99, "lut_bits": 5, "random_state": 4}  # fmt: skip
+                                "max_samples": 99, "lut_bits": 5, "random_state": 4,
+                                "filter_variant": "improved"}  # fmt: skip
     assert not [k for k in vars(det) if k.endswith("_")]
     assert clone(det).get_params() == det.get_params()
     RoadDetector(filters="nonsense")  # validated in fit/predict, not in __init__
