@@ -10,7 +10,8 @@ Rows:
 - how often the two pipelines agree, per pixel of the final masks (target >= 99.5 %),
   on clean and spoiled frames;
 - the rain/snow filter's handling of grey asphalt: Xu et al. alone, ``min(I, q)`` and
-  ``min(I, q + tolerance)`` (shipped: 0.02, and 0.05), scored on rain and snow frames from
+  ``min(I, q + tolerance)`` (the paper variant: 0.02, and 0.05) and the improved achromatic
+  variant (radius 3, tolerance 0.07, protect 5), scored on rain and snow frames from
   :mod:`simroad.noise` against the clean frame (mean absolute error in grey levels on
   the pixels the weather changed and on the others) and by the detector's FNR/FPR.
 

@@ -5,6 +5,14 @@ arguments, ``fit(images, masks)`` learns an RBF SVM on per-pixel colour features
 any RGB images with bool road masks (rendered frames or photographs), ``predict``
 returns a bool road mask. Models are stored as ``.npz`` arrays plus a JSON header,
 never pickled, so a shared model file cannot run code.
+
+The filters run in one of two variants (``filter_variant``): ``"paper"`` as §III
+describes them, and ``"improved"`` (default), where the rain/snow filter removes the
+particles' excess from all channels alike and keeps lane paint
+(:func:`~simroad.filters.remove_rain_snow` with ``achromatic=True, protect=5``) and the
+light filter subtracts the sun's additive lobe instead of applying eq. 27
+(:func:`~simroad.filters.remove_glare`). The shadow filter is the same in both.
+``simroad filter-effect`` measures each against no filter on its own weather.
 """
 
 from __future__ import annotations
@@ -44,8 +52,8 @@ __all__ = ["FILTERS", "FILTER_VARIANTS", "MIN_IMAGE_SIZE", "RoadDetector", "appl
 #: bright streaks would otherwise pass for highlights in the dark channel), then
 #: highlights, then shadows (NDI needs the true value V).
 FILTERS = ("rain_snow", "light", "shadow")
-#: How the filters are run: ``"paper"`` as §III describes them, ``"improved"`` with the
-#: corrections that make each one lower FNR + FPR on its weather (see README).
+#: How the filters are run: ``"improved"`` (default) with the corrections that make each
+#: one lower FNR + FPR on its weather, ``"paper"`` as §III describes them (see README).
 FILTER_VARIANTS = ("improved", "paper")
 #: Smallest image side the detector accepts, in pixels.
 MIN_IMAGE_SIZE = 8

@@ -44,6 +44,19 @@ the snow removal at a half to a fifth of the damage. Rendered rain drops mostly
 undo: against rain only Xu et al.'s blur helps, at that price. ``radius = 2`` and
 ``subsample = 2`` were chosen the same way (larger windows erase more of the
 markings; full resolution costs twice the time for a similar result).
+
+Achromatic variant (``achromatic=True``, the detector's default)
+-----------------------------------------------------------------
+Per channel, ``min(I, q + tolerance)`` also pulls each channel of a textured surface
+towards its own smooth estimate; on a faintly blue snow cover that flattens the blue to
+grey, and the detector took the snow for road (FPR 7 % -> 31 % at snow severity 0.9).
+Drops and flakes add nearly white light (eq. 19 with a white ``I_E``), so the
+achromatic variant estimates the rain-free *grey* image ``q_g`` and subtracts the excess
+``max(0, I_g - q_g - tolerance)`` from all three channels alike: chroma is kept exactly.
+``protect`` raises ``q_g`` to a square opening of ``I_g`` so bright structures wider than a
+particle (lane paint) are kept. Radius 3, tolerance 0.07 and protect 5 were chosen on
+held-out frames (seeds 100, 102, 104) over clean, rain 0.5 and snow 0.5, 0.7 and 0.9;
+``simroad filter-effect`` has the result.
 """
 
 from __future__ import annotations
@@ -138,7 +151,7 @@ def remove_rain_snow(
         its rain-free estimate) from all three channels alike. Drops and flakes add
         nearly white light, so this removes them while every surface keeps its
         chroma; per channel, the faint blue of a snow cover was flattened to grey and
-        the detector took the snow for road (FPR 5 % -> 35 % at snow severity 0.9).
+        the detector took the snow for road (FPR 7 % -> 31 % at snow severity 0.9).
         Needs a ``tolerance``.
     protect : int, optional
         With ``achromatic``: side of a square opening of ``I_g`` (0 or 1: off); bright
