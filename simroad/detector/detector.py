@@ -101,7 +101,7 @@ def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...], variant: 
             if variant == "paper":
                 out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
             else:
-                out, _ = _glare_planes(out, 3, 241, 0.01, 0.98, 0.8, 2.2)
+                out, _ = _glare_planes(out, 3, 481, 0.01, 0.98, 0.8, 2.2)
         else:
             out, _ = _shadows_planes(out, -1.0, 16, 5, 0.8)
         clip_planes(out)

@@ -51,6 +51,7 @@ __all__ = ["dark_channel", "remove_glare", "remove_highlights", "specular_to_dif
 
 _TINY = np.float32(1e-6)
 _MAX_TINT = 2.0
+_SCALE = 4  # the lobe is estimated on an image this many times smaller
 
 
 def _check_patch(patch: int) -> int:
@@ -294,7 +295,7 @@ def remove_highlights(
 
 
 def _lobe_estimate(lin, fine, wide, min_excess, saturation, raw):
-    """Glare lobe ``(excess, region, colour)`` on (half-resolution) linear planes, or None.
+    """Glare lobe ``(excess, region, colour)`` on reduced-resolution linear planes, or None.
 
     ``excess`` is the darkest channel's lift over its wide opening (the diffuse floor),
     ``region`` the part of ``excess > min_excess`` connected to a saturated pixel of
@@ -328,16 +329,16 @@ def _lobe_estimate(lin, fine, wide, min_excess, saturation, raw):
     return excess, region, np.clip(colour, 1.0, _MAX_TINT)
 
 
-def _glare_planes(planes, fine, wide, min_excess, saturation, core, gamma):
+def _glare_planes(planes, fine, wide, min_excess, saturation, core, gamma, scale=_SCALE):
     """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask)."""
     h, w = planes[0].shape
     out = [p.copy() for p in planes]
     if not (channel_min(planes) >= saturation).any():  # no clipped pixel: no glare to remove
         return out, np.zeros((h, w), bool)
-    hh, hw = max(1, h // 2), max(1, w // 2)
-    half = [cv2.resize(p, (hw, hh), interpolation=cv2.INTER_AREA) for p in planes]
-    lin_half = [cv2.pow(p, float(gamma)) for p in half]
-    found = _lobe_estimate(lin_half, fine, max(3, wide // 2 * 2 + 1), min_excess, saturation, half)
+    sh, sw = max(1, h // scale), max(1, w // scale)
+    small = [cv2.resize(p, (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
+    lin_small = [cv2.pow(p, float(gamma)) for p in small]
+    found = _lobe_estimate(lin_small, fine, max(3, (wide // scale) | 1), min_excess, saturation, small)
     if found is None:
         return out, np.zeros((h, w), bool)
     excess, region, colour = found
@@ -353,11 +354,11 @@ def _glare_planes(planes, fine, wide, min_excess, saturation, core, gamma):
     # Saturated pixels keep nothing of the surface: fill them from their surroundings
     # (at quarter resolution: the fill is smooth anyway).
     qh, qw = max(1, h // 4), max(1, w // 4)
-    clipped = cv2.resize(((channel_min(half) >= core) & region).view(np.uint8), (qw, qh), interpolation=cv2.INTER_NEAREST)
+    clipped = cv2.resize(((channel_min(small) >= core) & region).view(np.uint8), (qw, qh), interpolation=cv2.INTER_NEAREST)
     if clipped.any():
         clipped = cv2.dilate(clipped, np.ones((3, 3), np.uint8))
-        small = cv2.merge([cv2.resize(o, (qw, qh), interpolation=cv2.INTER_AREA) for o in out])
-        filled = cv2.inpaint(cv2.convertScaleAbs(np.clip(small, 0.0, 1.0), alpha=255.0), clipped, 2, cv2.INPAINT_TELEA)
+        reduced = cv2.merge([cv2.resize(o, (qw, qh), interpolation=cv2.INTER_AREA) for o in out])
+        filled = cv2.inpaint(cv2.convertScaleAbs(np.clip(reduced, 0.0, 1.0), alpha=255.0), clipped, 2, cv2.INPAINT_TELEA)
         where = cv2.resize(clipped, (w, h), interpolation=cv2.INTER_NEAREST) > 0
         fill_full = cv2.resize(filled, (w, h), interpolation=cv2.INTER_LINEAR)
         for c, o in enumerate(out):
@@ -370,7 +371,7 @@ def remove_glare(
     image: np.ndarray,
     *,
     fine: int = 3,
-    wide: int = 241,
+    wide: int = 481,
     min_excess: float = 0.01,
     saturation: float = 0.98,
     core: float = 0.8,
@@ -379,7 +380,7 @@ def remove_glare(
     """Remove a sun glare lobe by subtracting its additive, sun-coloured radiance.
 
     The improved light filter (the paper's eq. 27 cannot act on grey asphalt). Working
-    at half resolution in linear radiance ``L = I**gamma``: each channel is opened
+    at quarter resolution in linear radiance ``L = I**gamma``: each channel is opened
     with a ``fine`` square (removing lane paint and texture) and then with a ``wide``
     horizontal line; the lift of the opened channel over its wide opening is what a
     broad, bright band added on top of the diffuse floor -- the specular lobe of eq. 23
@@ -396,10 +397,11 @@ def remove_glare(
     image : ndarray, (H, W, 3), uint8 or float32/float64 in [0, 1]
         RGB image.
     fine : int, optional
-        Side of the small opening, in half-resolution pixels, odd, in [1, 31].
+        Side of the small opening, in quarter-resolution pixels, odd, in [1, 31].
     wide : int, optional
         Length of the horizontal opening in full-resolution pixels (a lobe is
-        narrower), in [3, 4095].
+        narrower), in [3, 4095]. The default is longer than a 320-pixel row: the
+        floor is then the row's minimum.
     min_excess : float, optional
         Smallest linear lift that counts as glare, in (0, 1).
     saturation : float, optional

@@ -73,31 +73,24 @@ def ndi(image: np.ndarray) -> np.ndarray:
     return _ndi_planes(to_planes(image))
 
 
-def _label_stats(labels: np.ndarray, planes: list[np.ndarray], n: int, *, std: bool):
-    """Count (n,), mean (n, C) and, if asked, std (n, C) of C planes per label 0..n-1.
-
-    Label 0 (background) is not counted; only labelled pixels are visited.
-    """
-    idx = np.flatnonzero(labels)
-    lab = labels.reshape(-1)[idx]
+def _label_stats(idx: np.ndarray, lab: np.ndarray, planes: list[np.ndarray], n: int, *, std: bool):
+    """Count (n,), mean (n, C) and, if asked, std (n, C) of C planes per label 0..n-1,
+    over the flat pixel indices ``idx`` whose labels are ``lab``."""
     count = np.bincount(lab, minlength=n).astype(np.float64)
     safe = np.maximum(count, 1.0)
     mean, sq = np.zeros((n, len(planes))), np.zeros((n, len(planes)))
     for c, p in enumerate(planes):
-        pix = p.reshape(-1)[idx].astype(np.float64)
+        pix = p.reshape(-1).take(idx).astype(np.float64)
         mean[:, c] = np.bincount(lab, pix, minlength=n) / safe
         if std:
             sq[:, c] = np.bincount(lab, pix * pix, minlength=n) / safe
     return count, mean, (np.sqrt(np.maximum(sq - mean**2, 0.0)) if std else None)
 
 
-def _keep(labels: np.ndarray, ok: np.ndarray) -> np.ndarray:
-    """``labels`` with every label not in ``ok`` set to 0."""
-    return np.where(ok[labels], labels, 0)
-
-
 def _candidate_regions(planes, min_ndi, min_area, ring):
-    """Otsu on NDI, regions of at least ``min_area`` px and their buffer rings (label images)."""
+    """Otsu on NDI: ``(n, labels, both)`` or None. ``labels`` numbers the connected
+    candidate regions 1..n-1 (those under ``min_area`` px set to 0); ``both`` is
+    ``labels`` with each region's buffer ring added as label ``n + k``."""
     index = _ndi_planes(planes)
     candidate = index > max(otsu_threshold(index), min_ndi)
     if not candidate.any():
@@ -107,7 +100,7 @@ def _candidate_regions(planes, min_ndi, min_area, ring):
     big[0] = False
     if not big.any():
         return None
-    labels = np.where(big[labels], labels, 0)
+    labels = (np.arange(n, dtype=labels.dtype) * big).take(labels)
     # Buffer ring: the largest neighbouring label reaches each pixel within `ring`
     # pixels (grey dilation of the label image by a square, which OpenCV does
     # separably); shadow pixels themselves are excluded. Where two rings overlap, the
@@ -115,8 +108,10 @@ def _candidate_regions(planes, min_ndi, min_area, ring):
     dtype = np.uint16 if n <= np.iinfo(np.uint16).max else np.float32
     ring_labels = cv2.dilate(labels.astype(dtype), np.ones((2 * ring + 1, 2 * ring + 1), np.uint8))
     ring_labels = ring_labels.astype(np.int32)
-    ring_labels[candidate] = 0
-    return n, labels, ring_labels
+    in_ring = (ring_labels > 0) & ~candidate
+    both = labels.copy()
+    both[in_ring] = ring_labels[in_ring] + n
+    return n, labels, both
 
 
 def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
@@ -124,21 +119,23 @@ def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
 
     The tests run from cheap to dear: area, then mean intensity against the ring, then
     colour, then the spreads of the regions that are left (usually none on a clean
-    frame).
+    frame). Regions and rings share one label image (ring of ``k`` is ``n + k``), so
+    each test is one pass over the labelled pixels.
     """
     found = _candidate_regions(planes, min_ndi, min_area, ring)
     if found is None:
         return None
-    n, labels, ring_labels = found
-    grey = [channel_sum(planes)]
-    cnt_k, v_k, _ = _label_stats(labels, grey, n, std=False)
-    cnt_b, v_b, _ = _label_stats(ring_labels, grey, n, std=False)
-    ok = (cnt_k >= min_area) & (cnt_b >= min_area) & (v_k[:, 0] <= max_darkness * v_b[:, 0])
+    n, labels, both = found
+    idx = np.flatnonzero(both)
+    lab = both.reshape(-1).take(idx)
+    cnt, v, _ = _label_stats(idx, lab, [channel_sum(planes)], 2 * n, std=False)
+    cnt_k, cnt_b, v_k, v_b = cnt[:n], cnt[n:], v[:n, 0], v[n:, 0]
+    ok = (cnt_k >= min_area) & (cnt_b >= min_area) & (v_k <= max_darkness * v_b)
     if not ok.any():
         return None
-    labels, ring_labels = _keep(labels, ok), _keep(ring_labels, ok)
-    _, mu_k, sd_k = _label_stats(labels, planes, n, std=True)
-    _, mu_b, sd_b = _label_stats(ring_labels, planes, n, std=True)
+    sel = np.concatenate([ok, ok]).take(lab)
+    _, mu, sd = _label_stats(idx[sel], lab[sel], planes, 2 * n, std=True)
+    mu_k, mu_b, sd_k, sd_b = mu[:n], mu[n:], sd[:n], sd[n:]
     ratio = mu_k / np.maximum(mu_b, 1e-6)  # (n, 3) region / ring, per channel
     # Skylight is bluer than sunlight and its spectrum rises smoothly towards blue:
     # a shadow keeps more blue than green and more green than red.
