@@ -48,6 +48,9 @@ class ControllerConfig:
         Free road kept in reserve when computing the safe speed.
     free_road_max_m : float
         Farthest distance checked for free road ahead (beyond the path look-aheads).
+    corridor_half_width_m, corridor_min_road : float
+        The car's corridor along the path: free road ends at the first look-ahead row
+        where less than ``corridor_min_road`` of the corridor is road (a car ahead).
     max_lateral_accel_m_s2 : float
         Curve speed limit ``sqrt(a / curvature)`` from the fitted path.
     wheelbase_m : float
@@ -63,6 +66,8 @@ class ControllerConfig:
     max_decel_m_s2: float = 4.0
     stop_margin_m: float = 6.0
     free_road_max_m: float = 90.0
+    corridor_half_width_m: float = 1.1
+    corridor_min_road: float = 0.8
     max_lateral_accel_m_s2: float = 2.0
     wheelbase_m: float = 5.0
 
@@ -154,13 +159,41 @@ class MaskLaneKeeper:
             xs.append(self._x[k])
             rights.append(float(yrow[b]) if b < W - 1 else math.nan)
             lefts.append(float(yrow[a]) if a > 0 else math.nan)
-        x, right, left = np.asarray(xs), np.asarray(rights), np.asarray(lefts)
+        x = np.asarray(xs)
+        shape = self._prev_coeffs
+        right = _occlusion_free(x, np.asarray(rights), -1.0, shape)
+        left = _occlusion_free(x, np.asarray(lefts), 1.0, shape)
         cx, cy = self._centre_points(x, right, left)
         if free >= self._x[-1]:
             free = self._free_beyond(mask, list(cx), list(cy), free)
         est = PathEstimate(cx, cy, right, left, float(free))
         est.coeffs = self._fit(est)
+        if len(cx):
+            est.free_road_m = min(est.free_road_m, self._corridor_free(mask, est))
         return est
+
+    def _corridor_free(self, mask: np.ndarray, est: PathEstimate) -> float:
+        """Farthest look-ahead up to which the car's own corridor along the path is road.
+
+        The road run beside a car ahead in the ego's lane goes on, so the road edges alone
+        do not see it; the corridor (``corridor_half_width_m`` either side of the path,
+        continued straight beyond the measured rows) does: a car is not road.
+        """
+        c = self.config
+        ground_y = self.camera.ego_ground
+        x_end = float(est.x_m.max())
+        y_end = float(np.polyval(est.coeffs, x_end))
+        slope = float(np.polyval(np.polyder(est.coeffs), x_end))
+        free = 0.0
+        for r, x in zip(list(self._rows) + self._free_rows, list(self._x) + self._free_x):
+            centre = float(np.polyval(est.coeffs, x)) if x <= x_end else y_end + slope * (x - x_end)
+            inside = np.abs(ground_y[r, :, 1] - centre) <= c.corridor_half_width_m
+            if not inside.any():  # the corridor left the view sideways: it goes on
+                return c.free_road_max_m
+            if mask[r, inside].mean() < c.corridor_min_road:
+                return free
+            free = x
+        return c.free_road_max_m
 
     def _centre_points(self, x: np.ndarray, right: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ego-lane centre points, offset from each seen edge along the edge's normal.
@@ -284,6 +317,47 @@ def _edge_slopes(x: np.ndarray, y: np.ndarray) -> np.ndarray:
         out[ok] = np.polyfit(x[ok], y[ok], 1)[0]
     else:
         out[ok] = 0.0
+    return out
+
+
+def _occlusion_free(
+    x: np.ndarray, edge: np.ndarray, inward: float, shape: np.ndarray | None, tol_m: float = 0.6
+) -> np.ndarray:
+    """``edge`` (lateral position per look-ahead row, near to far) with the rows where
+    something on the road hides the edge set to NaN.
+
+    A road edge runs parallel to the road; a car on the road only ever cuts the run
+    short, so the side of a car shows as a jump *inward* (``inward`` = -1 for the right
+    edge, +1 for the left) from the edge continued from the nearer trusted rows. The
+    edge is continued along ``shape`` (the previous frame's path, quadratic
+    coefficients: it carries the road's curvature) or, without one, along a straight
+    line through the last two trusted rows. Rows that jump inward by more than
+    ``tol_m`` (plus 5 % of the distance from the last trusted row) are dropped;
+    outward jumps -- the edge reappearing past a car -- are kept, and the edge is
+    continued from there.
+    """
+    out = edge.copy()
+    seen_x: list[float] = []
+    seen_y: list[float] = []
+    for k in range(len(x)):
+        if not math.isfinite(out[k]):
+            continue
+        if seen_x:
+            dx = float(x[k]) - seen_x[-1]
+            if shape is not None:
+                predicted = seen_y[-1] + float(np.polyval(shape, x[k]) - np.polyval(shape, seen_x[-1]))
+            elif len(seen_x) >= 2:
+                predicted = seen_y[-1] + (seen_y[-1] - seen_y[-2]) / max(seen_x[-1] - seen_x[-2], 1e-6) * dx
+            else:
+                predicted = seen_y[-1]
+            jump = inward * (out[k] - predicted)
+            if jump > tol_m + 0.05 * dx:
+                out[k] = math.nan
+                continue
+            if -jump > tol_m + 0.05 * dx:  # the edge past a car: continue from here
+                seen_x, seen_y = [], []
+        seen_x.append(float(x[k]))
+        seen_y.append(float(out[k]))
     return out
 
 

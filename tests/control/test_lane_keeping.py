@@ -10,7 +10,7 @@ import pytest
 
 from simroad import SimroadError
 from simroad.control.drivers import SCENARIO_CONTROL, make_driver
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _pick_run
+from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _occlusion_free, _pick_run
 from simroad.envs import RoadCamEnv
 
 
@@ -22,6 +22,44 @@ def test_pick_run_contains_expected_position_and_bridges_slivers():
     assert y[a] == pytest.approx(-5.9) and y[b] == pytest.approx(5.9)  # sliver bridged
     assert _pick_run(row, y, expect_y=9.0)[0] == int(np.argmax(y > 8.0))
     assert _pick_run(np.zeros(201, bool), y, 0.0) is None
+
+
+def test_occlusion_free_drops_a_car_side_but_follows_curves_and_reappearing_edges():
+    x = np.array([5.0, 6, 7, 9, 11, 13, 15, 18, 21, 25])
+    bend = np.array([-0.02, 0.0, 0.0])  # the previous path: a curve to the left, y = -0.02 x^2
+    right = 2.0 - 0.02 * x**2  # the right edge follows it (2 m right of the path)
+    assert np.array_equal(_occlusion_free(x, right, -1.0, bend), right)  # a curve is not a car
+    hidden = right.copy()
+    hidden[x >= 15] -= 2.5  # a car's side, 2.5 m inside the edge from 15 m on
+    out = _occlusion_free(x, hidden, -1.0, bend)
+    assert np.array_equal(out[x < 15], right[x < 15]) and np.isnan(out[x >= 15]).all()
+    # Without a previous path: straight continuation; the same for the left edge (+1).
+    left = np.full(len(x), -6.0)
+    left[(x >= 9) & (x <= 13)] = -3.0  # a car on the left, then the edge again
+    out = _occlusion_free(x, left, 1.0, None)
+    assert np.isnan(out[(x >= 9) & (x <= 13)]).all() and (out[x > 13] == -6.0).all()
+    # An edge that reappears farther out (the near rows were hidden) is kept.
+    late = np.where(x < 9, 1.0, 3.0)
+    assert np.array_equal(_occlusion_free(x, late, -1.0, None), late)
+
+
+def test_controller_brakes_for_a_car_in_its_corridor_not_beside_it():
+    env = RoadCamEnv(scenario="highway", longitudinal=True, traffic=False)
+    _, info = env.reset(seed=0)
+    ego_x, ego_y = env.camera.ego_ground[..., 0], env.camera.ego_ground[..., 1]
+    ahead = (ego_x > 14.0) & (ego_x < 18.0)
+    cfg = ControllerConfig(lane_width_m=4.0, target_speed_m_s=25.0)
+    clear = MaskLaneKeeper(env.camera, cfg).read_path(info["road_mask"])
+    assert clear.free_road_m > 40.0
+    for lateral, blocked in ((0.0, True), (4.0, False), (-4.0, False)):  # own lane, right, left
+        mask = info["road_mask"] & ~(ahead & (np.abs(ego_y - lateral) < 0.9))
+        ctl = MaskLaneKeeper(env.camera, cfg)
+        est = ctl.read_path(mask)
+        if blocked:
+            assert 10.0 <= est.free_road_m < 14.0
+            assert ctl.act(mask, 25.0)[1] < -0.5
+        else:
+            assert est.free_road_m > 40.0
 
 
 def test_read_path_matches_the_true_lane_centre_on_a_curve():

@@ -24,3 +24,13 @@ def test_detector_driver_stays_on_the_road(scenario, seed, route_m):
     assert rec["offroad_fraction"] <= 0.01
     assert rec["route_completion"] >= 0.95
     assert not rec["collided"]
+
+
+@pytest.mark.parametrize("scenario, seed", [("highway", 100), ("highway", 101), ("highway", 102), ("racetrack", 100)])
+def test_oracle_in_traffic_neither_crashes_nor_leaves_the_road(scenario, seed):
+    # Regressions: a car's side read as the road edge sent the oracle across the
+    # highway and off it (seed 100); a car ahead in the lane, beside which the road
+    # run went on, was not braked for on the racetrack (seed 100).
+    rec = run_episode(EpisodeSpec(scenario=scenario, seed=seed, steps=150, driver="oracle"))
+    assert rec["offroad_steps"] == 0 and not rec["collided"]
+    assert rec["lateral_rmse_m"] <= 0.3
