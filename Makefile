@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
 help:
 	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
-	@echo "make paper    the paper's experiment at full size (about 30 min on 2 cores; runs/paper)"
+	@echo "make paper    the paper's experiment at full size (about 10 min on 2 cores; runs/paper)"
 	@echo "make test     set up .venv with test extras and run the test suite"
 	@echo "make bench    run the benchmarks (medians and side-by-side ratios)"
 	@echo "make figures  regenerate the pictures in docs/"
