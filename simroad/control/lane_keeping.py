@@ -87,7 +87,7 @@ class PathEstimate:
     centre_y_m: np.ndarray  # ego-lane centre at those distances
     right_y_m: np.ndarray  # right road edge (NaN where not seen)
     left_y_m: np.ndarray  # left road edge (NaN where not seen)
-    free_road_m: float  # farthest look-ahead still on the detected road
+    free_road_m: float  # farthest look-ahead up to which the road, and the car's corridor on it, is free
     coeffs: np.ndarray = field(default_factory=lambda: np.zeros(3))  # path Y(X), highest power first
 
 
@@ -130,6 +130,10 @@ class MaskLaneKeeper:
             if abs(x_col[r] - d) < 0.25 * d and r not in self._free_rows and r < int(self._rows[-1]):
                 self._free_rows.append(r)
                 self._free_x.append(float(x_col[r]))
+        # Every row the car's corridor is checked on, near to far.
+        self._check_rows = list(self._rows) + self._free_rows
+        self._check_x = list(self._x) + self._free_x
+        self._check_y = ground[self._check_rows, :, 1]
         self.reset()
 
     def reset(self) -> None:
@@ -165,11 +169,10 @@ class MaskLaneKeeper:
         left = _occlusion_free(x, np.asarray(lefts), 1.0, shape)
         cx, cy = self._centre_points(x, right, left)
         if free >= self._x[-1]:
-            free = self._free_beyond(mask, list(cx), list(cy), free)
+            free = self.config.free_road_max_m  # the road goes on: the corridor says how far
         est = PathEstimate(cx, cy, right, left, float(free))
         est.coeffs = self._fit(est)
-        if len(cx):
-            est.free_road_m = min(est.free_road_m, self._corridor_free(mask, est))
+        est.free_road_m = min(est.free_road_m, self._corridor_free(mask, est))
         return est
 
     def _corridor_free(self, mask: np.ndarray, est: PathEstimate) -> float:
@@ -180,14 +183,13 @@ class MaskLaneKeeper:
         continued straight beyond the measured rows) does: a car is not road.
         """
         c = self.config
-        ground_y = self.camera.ego_ground
-        x_end = float(est.x_m.max())
+        x_end = float(est.x_m.max()) if len(est.x_m) else float(self._x[-1])
         y_end = float(np.polyval(est.coeffs, x_end))
         slope = float(np.polyval(np.polyder(est.coeffs), x_end))
         free = 0.0
-        for r, x in zip(list(self._rows) + self._free_rows, list(self._x) + self._free_x):
+        for r, x, yrow in zip(self._check_rows, self._check_x, self._check_y):
             centre = float(np.polyval(est.coeffs, x)) if x <= x_end else y_end + slope * (x - x_end)
-            inside = np.abs(ground_y[r, :, 1] - centre) <= c.corridor_half_width_m
+            inside = np.abs(yrow - centre) <= c.corridor_half_width_m
             if not inside.any():  # the corridor left the view sideways: it goes on
                 return c.free_road_max_m
             if mask[r, inside].mean() < c.corridor_min_road:
@@ -240,20 +242,6 @@ class MaskLaneKeeper:
             if near.sum() >= 2:
                 arr = arr[near]
         return arr[:, 0], arr[:, 1]
-
-    def _free_beyond(self, mask: np.ndarray, xs: list, centres: list, free: float) -> float:
-        """Extend the free road past the path rows while the road continues."""
-        ground_y = self.camera.ego_ground
-        expect = centres[-1] if centres else 0.0
-        for r, x in zip(self._free_rows, self._free_x):
-            yrow = ground_y[r, :, 1]
-            if len(xs) >= 2:
-                slope = (centres[-1] - centres[0]) / max(xs[-1] - xs[0], 1e-6)
-                expect = centres[-1] + slope * (x - xs[-1])
-            if _pick_run(mask[r], np.nan_to_num(yrow, nan=1e6), expect) is None:
-                break
-            free = x
-        return free
 
     def _fit(self, est: PathEstimate) -> np.ndarray:
         """Path Y(X) as quadratic coefficients (highest power first)."""
