@@ -88,22 +88,23 @@ def _check_variant(variant: object) -> str:
     return str(variant)
 
 
+#: (filter, variant) -> the filter's core on float32 planes with the detector's settings;
+#: each returns new planes (the light and shadow cores also return their masks).
+_FILTER_STEPS = {
+    ("rain_snow", "paper"): lambda p: _rain_snow_planes(p, 2, 1e-3, 0.02, 2),
+    ("rain_snow", "improved"): lambda p: _rain_snow_planes(p, 3, 1e-3, 0.07, 2, achromatic=True, protect=5),
+    ("light", "paper"): lambda p: _highlights_planes(p, 7, 8, 1e-4, 2, 0.1, 2)[0],
+    ("light", "improved"): lambda p: _glare_planes(p, 3, 481, 0.01, 0.98, 0.8, 2.2)[0],
+    ("shadow", "paper"): lambda p: _shadows_planes(p, -1.0, 16, 5, 0.8)[0],
+    ("shadow", "improved"): lambda p: _shadows_planes(p, -1.0, 16, 5, 0.8)[0],
+}
+
+
 def _filter_planes(planes: list[np.ndarray], filters: tuple[str, ...], variant: str = "improved") -> list[np.ndarray]:
     """Run the filters (default settings) on float32 planes in [0, 1]; new planes in [0, 1]."""
     out = planes
     for name in filters:
-        if name == "rain_snow":
-            if variant == "paper":
-                out = _rain_snow_planes(out, 2, 1e-3, 0.02, 2)
-            else:
-                out = _rain_snow_planes(out, 3, 1e-3, 0.07, 2, achromatic=True, protect=5)
-        elif name == "light":
-            if variant == "paper":
-                out, _ = _highlights_planes(out, 7, 8, 1e-4, 2, 0.1, 2)
-            else:
-                out, _ = _glare_planes(out, 3, 481, 0.01, 0.98, 0.8, 2.2)
-        else:
-            out, _ = _shadows_planes(out, -1.0, 16, 5, 0.8)
+        out = _FILTER_STEPS[name, variant](out)
         clip_planes(out)
     return out
 
