@@ -232,9 +232,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("train-detector", help="reproduce the shipped road detector", description="Render clean frames of all three scenarios (one world palette per seed), fit the default SVM detector and save it as npz (no pickle).")
     p.add_argument("--out", default=None, help="output .npz (default: the package's shipped model file)")
-    p.add_argument("--seeds", type=int, default=8, help="number of training worlds (default: 8)")
+    p.add_argument("--seeds", type=int, default=16, help="number of training worlds (default: 16)")
     p.add_argument("--seed-start", type=int, default=0, help="first seed (default: 0; evaluation uses seeds >= 100)")
-    p.add_argument("--frames", type=int, default=6, help="frames per scenario and seed (default: 6)")
+    p.add_argument("--frames", type=int, default=12, help="frames per scenario and seed (default: 12)")
     p.set_defaults(func=_cmd_train)
 
     p = sub.add_parser("evaluate-detector", help="score the detector per filter setting (FNR, FPR, IoU, F1)", description="Score the shipped detector on rendered frames (held-out seeds) or on a folder of real images and masks, for each filter setting; also score the filters' own masks against the ground-truth noise masks.")

@@ -12,14 +12,14 @@ from simroad.experiments.frames import collect_frames
 __all__ = ["TRAIN_SEEDS", "train_detector"]
 
 #: Seeds of the shipped model's training worlds; evaluation uses seeds >= 100.
-TRAIN_SEEDS = tuple(range(0, 8))
+TRAIN_SEEDS = tuple(range(0, 16))
 
 
 def train_detector(
     out: str | os.PathLike | None = None,
     *,
     seeds: Sequence[int] = TRAIN_SEEDS,
-    frames_per_seed: int = 6,
+    frames_per_seed: int = 12,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seed: int = 0,
 ) -> Path:
