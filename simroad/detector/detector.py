@@ -7,9 +7,10 @@ returns a bool road mask. Models are stored as ``.npz`` arrays plus a JSON heade
 never pickled, so a shared model file cannot run code.
 
 The filters run in one of two variants (``filter_variant``): ``"paper"`` as §III
-describes them, and ``"improved"`` (default), where the rain/snow filter removes the
-particles' excess from all channels alike and keeps lane paint
-(:func:`~simroad.filters.remove_rain_snow` with ``achromatic=True, protect=5``) and the
+describes them, and ``"improved"`` (default), where the rain/snow filter first undoes
+the haze of the falling particles row by row (:func:`~simroad.filters.remove_haze`),
+then removes the particles' excess from all channels alike and keeps lane paint
+(:func:`~simroad.filters.remove_rain_snow` with ``achromatic=True, protect=5``), and the
 light filter subtracts the sun's additive lobe instead of applying eq. 27
 (:func:`~simroad.filters.remove_glare`). The shadow filter is the same in both.
 ``simroad filter-effect`` measures each against no filter on its own weather.
@@ -42,6 +43,7 @@ from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.svm import KernelExpansion
 from simroad.filters._common import clip_planes, from_planes, planes_to_uint8, to_planes
+from simroad.filters.haze import _haze_planes
 from simroad.filters.light import _glare_planes, _highlights_planes
 from simroad.filters.rain_snow import _rain_snow_planes
 from simroad.filters.shadow import _shadows_planes
@@ -97,7 +99,9 @@ def _check_variant(variant: object) -> str:
 #: each returns new planes (the light and shadow cores also return their masks).
 _FILTER_STEPS = {
     ("rain_snow", "paper"): lambda p: _rain_snow_planes(p, 2, 1e-3, 0.02, 2),
-    ("rain_snow", "improved"): lambda p: _rain_snow_planes(p, 3, 1e-3, 0.07, 2, achromatic=True, protect=5),
+    ("rain_snow", "improved"): lambda p: _rain_snow_planes(
+        clip_planes(_haze_planes(p)), 3, 1e-3, 0.07, 2, achromatic=True, protect=5
+    ),
     ("light", "paper"): lambda p: _highlights_planes(p, 7, 8, 1e-4, 2, 0.1, 2)[0],
     ("light", "improved"): lambda p: _glare_planes(p, 3, 481, 0.01, 0.98, 0.8, 2.2)[0],
     ("shadow", "paper"): lambda p: _shadows_planes(p, -1.0, 16, 5, 0.8)[0],

@@ -35,6 +35,21 @@ def test_paper_light_filter_leaves_grey_asphalt_glare_in_place(cache):
     assert gain(improved) > gain(paper) + 0.05
 
 
+def test_improved_rain_snow_filter_lifts_the_snow_veil(cache):
+    """In snow the haze, not the flakes, costs the far road: the improved rain/snow
+    filter (haze removal first) must lower FNR + FPR, and by more than the paper's."""
+    improved = filter_effect("snow", ["rain_snow"], seeds=(110, 111), frames=3, severity=0.7, cache=cache)
+    off, on = improved["without"], improved["with"]
+    assert off["fnr"] > 0.05  # snow really hurts the unfiltered detector
+    assert on["fnr"] < off["fnr"] and on["fnr"] + on["fpr"] < off["fnr"] + off["fpr"]
+    paper = filter_effect(
+        "snow", ["rain_snow"], seeds=(110, 111), frames=3, severity=0.7, cache=cache,
+        detector_factory=lambda f: RoadDetector.pretrained(filters=f, filter_variant="paper"),
+    )  # fmt: skip
+    total = lambda r: r["with"]["fnr"] + r["with"]["fpr"]  # noqa: E731
+    assert total(improved) < total(paper)
+
+
 def test_table_rows_and_format(cache):
     rows = filter_effect_table(seeds=(110,), frames=2, severity=0.6, noises=("shadow",), cache=cache)
     assert [(r["noise"], r["filters"]) for r in rows] == [("shadow", ("shadow",)), ("shadow", ("rain_snow", "light", "shadow"))]
