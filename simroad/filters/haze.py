@@ -9,8 +9,8 @@ radiance: the far road turns into the pale grey of a shoulder, and the colour
 classifier drops it -- most of the detector's FNR in light snow is this veil, not the
 flakes.
 
-For a level camera over flat ground, distance grows with image height up to the
-horizon, so ``t`` is a function of the row. This filter estimates it from the image
+For a camera without roll over flat ground, distance grows with image height up to
+the horizon, so ``t`` is a function of the row. This filter estimates it from the image
 itself:
 
 * ``A`` -- the median colour of the top eighth of the rows: the sky, which is the
@@ -59,13 +59,14 @@ def _transmission(planes, percentile: float, t_min: float, tolerance: float, gam
     """Per-row transmission ``t`` (H,) float32 and airlight ``A`` (3,) in linear radiance, or None."""
     h, w = planes[0].shape
     sh, sw = h, max(1, w // scale)  # every row kept: t changes fast near the horizon
-    lin = [cv2.pow(cv2.resize(p, (sw, sh), interpolation=cv2.INTER_AREA), gamma) for p in planes]
-    darkest = cv2.min(cv2.min(lin[0], lin[1]), lin[2])
-    top = max(1, sh // 8)  # the sky at the top of a level camera's frame is the airlight
-    airlight = np.array([float(np.median(x[:top])) for x in lin], np.float32)
+    top = max(1, h // 8)  # the sky at the top of the frame is the airlight
+    sky = [cv2.pow(cv2.resize(p[:top], (sw, top), interpolation=cv2.INTER_AREA), gamma) for p in planes]
+    airlight = np.array([float(np.median(x)) for x in sky], np.float32)
     a_min = float(airlight.min())
     if 1.0 - a_min / max(float(airlight.mean()), 1e-6) > max_sky_saturation:
         return None  # a blue sky: clear air, no veil worth removing (and the far rows' rise is the roadside)
+    lin = [cv2.pow(cv2.resize(p, (sw, sh), interpolation=cv2.INTER_AREA), gamma) for p in planes]
+    darkest = cv2.min(cv2.min(lin[0], lin[1]), lin[2])
     kth = min(sw - 1, int(round(percentile / 100.0 * (sw - 1))))
     floor = np.partition(darkest, kth, axis=1)[:, kth]  # the row's percentile (nearest rank)
     j0 = float(np.median(floor[sh - max(1, sh // 8) :]))
@@ -112,7 +113,7 @@ def remove_haze(
     Parameters
     ----------
     image : ndarray, (H, W, 3), uint8 or float32/float64 in [0, 1]
-        RGB image from a level camera over flat ground (the sky at the top).
+        RGB image from a camera without roll over flat ground, the sky at the top.
     percentile : float, optional
         Percentile of each row's darkest channel taken as the row floor, in [0, 50].
     t_min : float, optional
