@@ -110,9 +110,15 @@ def _spoil(frames, noise: str, severity: float, *, particles_only: bool = False)
     return out
 
 
-def _agreement(det, literal, images) -> float:
-    same = [np.mean(det.predict(img) == literal(img)) for img in images]
-    return 100.0 * float(np.mean(same))
+def _agreement(det, literal, images, ground=None) -> tuple[float, float]:
+    """Per-pixel agreement of the final masks (%), over the whole frame and over the
+    ground pixels (``camera.ground_valid``, what the mask metrics count)."""
+    whole, on_ground = [], []
+    for img in images:
+        same = det.predict(img) == literal(img)
+        whole.append(same.mean())
+        on_ground.append(same[ground].mean() if ground is not None else same.mean())
+    return 100.0 * float(np.mean(whole)), 100.0 * float(np.mean(on_ground))
 
 
 def _rain_variants(det, clean, noise: str) -> str:
@@ -195,11 +201,15 @@ def main(repeats: int = 20) -> dict[str, dict[str, np.ndarray]]:
     print(table("stages: 320x180, one core", stages, target_ms={_TABLE: TARGET_MS}), flush=True)
     results["stages"] = stages
     print("\n## agreement of the final masks, table vs per-pixel SVC.predict (target >= 99.5 %)")
-    print(f"clean frames (6): {_agreement(det, literal, [c[0] for c in clean]):.3f} %")
+    print("(whole frame / ground pixels only; a white overcast sky that the colour classifier calls")
+    print(" road can join the road component in one pipeline and not in the other)")
+    ground = clean[0][2].ground_valid
+    whole, on_ground = _agreement(det, literal, [c[0] for c in clean], ground)
+    print(f"clean frames (6): {whole:.3f} % / {on_ground:.3f} %")
     for noise in NOISES:
         spoiled = _spoil(clean, noise, 0.7)
-        agree = _agreement(det, literal, [s[0] for s in spoiled])
-        print(f"{noise} frames (6, severity 0.7): {agree:.3f} %", flush=True)
+        whole, on_ground = _agreement(det, literal, [s[0] for s in spoiled], ground)
+        print(f"{noise} frames (6, severity 0.7): {whole:.3f} % / {on_ground:.3f} %", flush=True)
     print("\n## rain/snow filter on grey asphalt (6 rendered frames of world 0, severity 0.7)")
     for noise in ("rain", "snow"):
         print(f"\n{noise}:\n" + _rain_variants(det, clean, noise), flush=True)
