@@ -281,8 +281,9 @@ class RoadDetector(BaseEstimator):
     2) on the 300 clean frames of ``simroad evaluate-detector`` (held-out worlds
     100-104, all three scenarios): pooled FNR 1.8 %, FPR 1.7 % without filters; FNR
     4.5 %, FPR 1.2 % with all three. 320x180 on one core: about 1 ms without filters
-    and 4-7 ms with all three, against 0.25-0.6 s (growing with the number of support
-    vectors) for the literal per-pixel ``SVC.predict`` (``benchmarks/bench_detector.py``).
+    and 4-7 ms with all three (quiet machine), 100-150x faster than the literal
+    per-pixel ``SVC.predict``, whose cost grows with the number of support vectors
+    (``benchmarks/bench_detector.py``).
     """
 
     def __init__(

@@ -1,4 +1,4 @@
-"""Haze of falling rain and snow, removed row by row (Koschmieder's law, eq. 19's veil).
+"""Haze of falling rain and snow, removed row by row (Koschmieder's law).
 
 Falling snow and rain do not only blend particles into the image (eq. 19): the
 particles too small to resolve scatter light along every line of sight, and a
