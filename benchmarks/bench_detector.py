@@ -31,7 +31,7 @@ import warnings
 import numpy as np
 from _harness import interleaved, one_core, table
 
-from simroad.detector import FILTERS, RoadDetector, train_default
+from simroad.detector import FILTERS, RoadDetector, apply_filters, train_default
 from simroad.detector.detector import _filtered_rgb
 from simroad.detector.features import _features_f
 from simroad.detector.morphology import _ego_component, _fill_holes
@@ -140,7 +140,7 @@ def _rain_variants(det, clean, noise: str) -> str:
         if tol == "grey":
             run = lambda x: remove_rain_snow(x, radius=3, tolerance=0.07, achromatic=True, protect=5)  # noqa: E731
         elif tol == "haze":
-            run = lambda x: remove_rain_snow(remove_haze(x), radius=3, tolerance=0.07, achromatic=True, protect=5)  # noqa: E731
+            run = lambda x: apply_filters(x, ("rain_snow",), variant="improved")  # noqa: E731
         else:
             run = (lambda x: x) if tol == "off" else (lambda x, tol=tol: remove_rain_snow(x, tolerance=tol))
         err_in, err_out, score = [], [], MaskScore()

@@ -99,9 +99,7 @@ def _check_variant(variant: object) -> str:
 #: each returns new planes (the light and shadow cores also return their masks).
 _FILTER_STEPS = {
     ("rain_snow", "paper"): lambda p: _rain_snow_planes(p, 2, 1e-3, 0.02, 2),
-    ("rain_snow", "improved"): lambda p: _rain_snow_planes(
-        clip_planes(_haze_planes(p)), 3, 1e-3, 0.07, 2, achromatic=True, protect=5
-    ),
+    ("rain_snow", "improved"): lambda p: _rain_snow_planes(_haze_planes(p), 3, 1e-3, 0.07, 2, achromatic=True, protect=5),
     ("light", "paper"): lambda p: _highlights_planes(p, 7, 8, 1e-4, 2, 0.1, 2)[0],
     ("light", "improved"): lambda p: _glare_planes(p, 3, 481, 0.01, 0.98, 0.8, 2.2)[0],
     ("shadow", "paper"): lambda p: _shadows_planes(p, -1.0, 16, 5, 0.8)[0],

@@ -87,16 +87,17 @@ def _haze_planes(planes, percentile: float = 2.0, t_min: float = 0.5, tolerance:
     if found is None:
         return out
     t, airlight = found
-    rows = np.flatnonzero(t < 1.0)
-    r0, r1 = int(rows[0]), int(rows[-1]) + 1
-    gain = 1.0 / t[r0:r1, None]
+    # t never grows upwards (the floor is made non-decreasing upwards), so the veiled
+    # rows are the top ``n`` rows of the frame.
+    n = int(np.count_nonzero(t < 1.0))
+    gain = 1.0 / t[:n, None]
     lift = 1.0 - gain  # J = I / t - A (1 - t) / t = I gain + A lift
     for o, p, a in zip(out, planes, airlight):
-        lin = cv2.pow(p[r0:r1], float(gamma))
+        lin = cv2.pow(p[:n], float(gamma))
         lin *= gain
         lin += a * lift
         np.clip(lin, 0.0, 1.0, out=lin)
-        cv2.pow(lin, 1.0 / float(gamma), dst=o[r0:r1])
+        cv2.pow(lin, 1.0 / float(gamma), dst=o[:n])
     return out
 
 
