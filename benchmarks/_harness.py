@@ -23,7 +23,9 @@ def one_core() -> None:
     cv2.setNumThreads(1)
 
 
-def interleaved(candidates: dict[str, Callable[[], object]], *, repeats: int = 50, warmup: int = 3) -> dict[str, np.ndarray]:
+def interleaved(
+    candidates: dict[str, Callable[[], object]], *, repeats: int = 50, warmup: int = 3
+) -> dict[str, np.ndarray]:
     """Time each candidate ``repeats`` times in round-robin order; seconds per call."""
     for fn in candidates.values():
         for _ in range(warmup):
@@ -37,7 +39,9 @@ def interleaved(candidates: dict[str, Callable[[], object]], *, repeats: int = 5
     return {k: np.asarray(v) for k, v in times.items()}
 
 
-def table(title: str, times: dict[str, np.ndarray], *, baseline: str | None = None, target_ms: dict[str, float] | None = None) -> str:
+def table(
+    title: str, times: dict[str, np.ndarray], *, baseline: str | None = None, target_ms: dict[str, float] | None = None
+) -> str:
     """Format medians (ms) and ratios to ``baseline`` as a text table."""
     target_ms = target_ms or {}
     lines = [f"\n## {title}", f"{'stage':<48} {'median ms':>10} {'p90 ms':>9} {'ratio':>9}  target"]

@@ -15,7 +15,15 @@ def main() -> None:
     from simroad.experiments.ablate import run_ablation
     from simroad.experiments.grid import AblationGrid
 
-    grid = AblationGrid(scenarios=("racetrack", "winding"), noises=("clear", "rain"), severities=(0.6,), filters=("none", "all"), seeds=2, steps=40, oracle=False)
+    grid = AblationGrid(
+        scenarios=("racetrack", "winding"),
+        noises=("clear", "rain"),
+        severities=(0.6,),
+        filters=("none", "all"),
+        seeds=2,
+        steps=40,
+        oracle=False,
+    )
     n = len(grid.specs())
     runs = {"local, 1 worker": dict(workers=1), "local, 2 workers": dict(workers=2)}
     if importlib.util.find_spec("ray") is not None:
@@ -37,7 +45,9 @@ def main() -> None:
     print(f"2 workers vs 1: {speedup:.2f}x episodes/min (target >= 1.7x)")
     ray_key = "ray, 2 workers (incl. start-up)"
     if ray_key in med:
-        print(f"Ray vs local pool, 2 workers: {med[ray_key] / med['local, 2 workers']:.2f}x the wall time ({med[ray_key] - med['local, 2 workers']:+.1f} s)")
+        print(
+            f"Ray vs local pool, 2 workers: {med[ray_key] / med['local, 2 workers']:.2f}x the wall time ({med[ray_key] - med['local, 2 workers']:+.1f} s)"
+        )
 
 
 if __name__ == "__main__":

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-
 from _harness import bare_racetrack_step, interleaved, one_core, table
 
 

@@ -4,7 +4,6 @@ driver, and perception + control cost per step as a ratio to highway-env's own s
 from __future__ import annotations
 
 import numpy as np
-
 from _harness import bare_racetrack_step, interleaved, one_core, table
 
 
@@ -44,7 +43,13 @@ def main() -> None:
         },
         repeats=80,
     )
-    print(table("closed loop, 320x180, racetrack, one core (ratio vs bare env.step)", times, baseline="highway-env env.step() (bare, racetrack)"))
+    print(
+        table(
+            "closed loop, 320x180, racetrack, one core (ratio vs bare env.step)",
+            times,
+            baseline="highway-env env.step() (bare, racetrack)",
+        )
+    )
     full = float(np.median(times["full detector-driver step (all of the above)"]))
     pc = float(np.median(times["perception + control (detector, all filters)"]))
     hw = float(np.median(times["highway-env env.step() (bare, racetrack)"]))

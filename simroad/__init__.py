@@ -11,8 +11,8 @@ import os
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
-from simroad._validation import SimroadError  # noqa: E402
-from simroad.envs import ENV_ID, RoadCamConfig, RoadCamEnv  # noqa: E402
+from simroad._validation import SimroadError
+from simroad.envs import ENV_ID, RoadCamConfig, RoadCamEnv
 
 __version__ = "0.1.0"
 __all__ = ["ENV_ID", "RoadCamConfig", "RoadCamEnv", "SimroadError", "__version__"]

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "check_bool",
     "SimroadError",
+    "check_bool",
     "check_choice",
     "check_finite_number",
     "check_image",
@@ -46,8 +46,7 @@ def check_choice(name: str, value: Any, valid: Iterable[str]) -> str:
     if not isinstance(value, str) or value not in valid:
         hint = _did_you_mean(value, valid) if isinstance(value, str) else ""
         raise SimroadError(
-            f"{name}: unknown value {value!r}; expected one of "
-            f"{', '.join(repr(v) for v in valid)}.{hint}"
+            f"{name}: unknown value {value!r}; expected one of {', '.join(repr(v) for v in valid)}.{hint}"
         )
     return value
 
@@ -104,15 +103,11 @@ def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         else:
-            raise SimroadError(
-                f"{name}: expected an integer in [{low}, {high}], got "
-                f"{type(value).__name__} {value!r}."
-            )
+            raise SimroadError(f"{name}: expected an integer in [{low}, {high}], got {type(value).__name__} {value!r}.")
     value = int(value)
     if not low <= value <= high:
         raise SimroadError(
-            f"{name}: expected an integer in [{low}, {high}], got {value}. "
-            f"Pass a value inside that range."
+            f"{name}: expected an integer in [{low}, {high}], got {value}. Pass a value inside that range."
         )
     return value
 
@@ -144,8 +139,7 @@ def check_image(
     """
     if not isinstance(image, np.ndarray):
         raise SimroadError(
-            f"{name}: expected a numpy array, got {type(image).__name__}. "
-            f"Convert it with numpy.asarray(...)."
+            f"{name}: expected a numpy array, got {type(image).__name__}. Convert it with numpy.asarray(...)."
         )
     dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
     if image.dtype.name not in dtypes:
@@ -169,17 +163,14 @@ def check_image(
         raise SimroadError(f"{name}: expected an array of shape {expected}, got shape {image.shape}.")
     h, w = image.shape[:2]
     if h < min_size or w < min_size:
-        raise SimroadError(
-            f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height)."
-        )
+        raise SimroadError(f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height).")
     if image.dtype.kind == "f":
         if not np.isfinite(image).all():
             raise SimroadError(f"{name}: contains NaN or infinite values; replace them first.")
         lo, hi = float(image.min()), float(image.max())
         if lo < 0.0 or hi > 1.0:
             raise SimroadError(
-                f"{name}: float images must lie in [0, 1], got values in [{lo:g}, {hi:g}]. "
-                f"Divide uint8 images by 255."
+                f"{name}: float images must lie in [0, 1], got values in [{lo:g}, {hi:g}]. Divide uint8 images by 255."
             )
     return image
 
@@ -192,16 +183,11 @@ def check_mask(name: str, mask: Any, shape: tuple[int, int] | None = None) -> np
         if mask.dtype.kind in "iu" and mask.size and set(np.unique(mask)).issubset({0, 1}):
             mask = mask.astype(bool)
         else:
-            raise SimroadError(
-                f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. "
-                f"Convert with mask > 0."
-            )
+            raise SimroadError(f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. Convert with mask > 0.")
     if mask.ndim != 2:
         raise SimroadError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}.")
     if shape is not None and mask.shape != tuple(shape):
-        raise SimroadError(
-            f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}."
-        )
+        raise SimroadError(f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}.")
     return mask
 
 
@@ -215,6 +201,5 @@ def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
         return np.random.default_rng(int(rng))
     raise SimroadError(
-        f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. "
-        f"Pass rng=np.random.default_rng(seed)."
+        f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. Pass rng=np.random.default_rng(seed)."
     )

@@ -96,9 +96,7 @@ class PinholeCamera:
         self.config = config or CameraConfig()
         c = self.config
         fx = (c.width / 2.0) / math.tan(math.radians(c.hfov_deg) / 2.0)
-        self.K = np.array(
-            [[fx, 0.0, (c.width - 1) / 2.0], [0.0, fx, (c.height - 1) / 2.0], [0.0, 0.0, 1.0]]
-        )
+        self.K = np.array([[fx, 0.0, (c.width - 1) / 2.0], [0.0, fx, (c.height - 1) / 2.0], [0.0, 0.0, 1.0]])
         self.K_inv = np.linalg.inv(self.K)
         pitch = math.radians(c.pitch_deg)
         self.horizon_row = self.K[1, 2] - fx * math.tan(pitch)

@@ -16,9 +16,9 @@ import cv2
 import numpy as np
 
 from simroad.camera.geometry import PinholeCamera
-from simroad.camera.world import ASPHALT, SKY, VEHICLE, WorldRaster
+from simroad.camera.world import SKY, VEHICLE, WorldRaster
 
-__all__ = ["Frame", "CameraRenderer", "VehicleBox", "render_bev"]
+__all__ = ["CameraRenderer", "Frame", "VehicleBox", "render_bev"]
 
 VEHICLE_HEIGHT_M = 1.5
 _NEAR_M = 0.3
@@ -43,7 +43,12 @@ class VehicleBox:
         hl, hw = self.length / 2, self.width / 2
         ctr = np.array([self.x, self.y])
         return np.array(
-            [ctr + hl * fwd - hw * right, ctr + hl * fwd + hw * right, ctr - hl * fwd + hw * right, ctr - hl * fwd - hw * right]
+            [
+                ctr + hl * fwd - hw * right,
+                ctr + hl * fwd + hw * right,
+                ctr - hl * fwd + hw * right,
+                ctr - hl * fwd - hw * right,
+            ]
         )
 
 
@@ -148,14 +153,35 @@ class CameraRenderer:
             M = win.texel_from_world @ cam.H_world_from_image @ self._shift
             size = (c.width, c.height - r0)
             flags = cv2.WARP_INVERSE_MAP
-            rgba = cv2.warpPerspective(win.rgba, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE)
-            cv2.warpPerspective(win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE)
+            rgba = cv2.warpPerspective(
+                win.rgba, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE
+            )
+            cv2.warpPerspective(
+                win.material,
+                M,
+                size,
+                dst=material[r0:],
+                flags=cv2.INTER_NEAREST | flags,
+                borderMode=cv2.BORDER_REPLICATE,
+            )
             ground = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
             np.greater_equal(rgba[..., 3], 128, out=road[r0:])  # exact GT from the full-resolution SDF
             for level, a, b in self._mip_bands:  # far rows: colour from a coarser mip level
-                S = np.array([[2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5], [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5], [0.0, 0.0, 1.0]])
+                S = np.array(
+                    [
+                        [2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5],
+                        [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5],
+                        [0.0, 0.0, 1.0],
+                    ]
+                )
                 Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(a - r0)], [0.0, 0.0, 1.0]])
-                band = cv2.warpPerspective(win.level(level), Ma, (c.width, b - a), flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE)
+                band = cv2.warpPerspective(
+                    win.level(level),
+                    Ma,
+                    (c.width, b - a),
+                    flags=cv2.INTER_LINEAR | flags,
+                    borderMode=cv2.BORDER_REPLICATE,
+                )
                 cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=ground[a - r0 : b - r0])
             fr = self._fade_rows
             if fr.stop > fr.start:

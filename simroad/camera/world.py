@@ -191,10 +191,18 @@ class WorldRaster:
         p = self.palette
         blotch_px = 2.0 / self.texel_m
         self._tex = {
-            ROADSIDE: make_texture(p.roadside_rgb, _TEX_SIZE, rng, grain=p.grain * 1.6, blotch=14.0, blotch_scale_px=blotch_px * 3),
-            SHOULDER: make_texture(p.shoulder_rgb, _TEX_SIZE, rng, grain=p.grain * 1.3, blotch=8.0, blotch_scale_px=blotch_px),
-            ASPHALT: make_texture(p.asphalt_rgb, _TEX_SIZE, rng, grain=p.grain, blotch=5.0, blotch_scale_px=blotch_px * 2),
-            MARKING: make_texture(p.marking_rgb, _TEX_SIZE, rng, grain=p.grain * 0.6, blotch=4.0, blotch_scale_px=blotch_px),
+            ROADSIDE: make_texture(
+                p.roadside_rgb, _TEX_SIZE, rng, grain=p.grain * 1.6, blotch=14.0, blotch_scale_px=blotch_px * 3
+            ),
+            SHOULDER: make_texture(
+                p.shoulder_rgb, _TEX_SIZE, rng, grain=p.grain * 1.3, blotch=8.0, blotch_scale_px=blotch_px
+            ),
+            ASPHALT: make_texture(
+                p.asphalt_rgb, _TEX_SIZE, rng, grain=p.grain, blotch=5.0, blotch_scale_px=blotch_px * 2
+            ),
+            MARKING: make_texture(
+                p.marking_rgb, _TEX_SIZE, rng, grain=p.grain * 0.6, blotch=4.0, blotch_scale_px=blotch_px
+            ),
         }
         self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._windows: dict[str, Window] = {}
@@ -218,10 +226,12 @@ class WorldRaster:
         return out
 
     def _render_tile(self, i: int, j: int) -> tuple[np.ndarray, np.ndarray]:
-        T, t = self.tile_px, self.texel_m
+        T, _t = self.tile_px, self.texel_m
         x0, y0 = i * self.tile_m, j * self.tile_m
         x1, y1 = x0 + self.tile_m, y0 + self.tile_m
-        visible = [s for s in self.shapes if s.bbox[0] <= x1 and s.bbox[2] >= x0 and s.bbox[1] <= y1 and s.bbox[3] >= y0]
+        visible = [
+            s for s in self.shapes if s.bbox[0] <= x1 and s.bbox[2] >= x0 and s.bbox[1] <= y1 and s.bbox[3] >= y0
+        ]
         sdf = self._tile_sdf(visible, x0, y0)
         material = np.full((T, T), ROADSIDE, dtype=np.uint8)
         material[sdf >= -self.palette.shoulder_width_m] = SHOULDER

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-__all__ = ["STEERING_RANGE_RAD", "lane_lookahead_point", "pure_pursuit_steering", "autopilot_action"]
+__all__ = ["STEERING_RANGE_RAD", "autopilot_action", "lane_lookahead_point", "pure_pursuit_steering"]
 
 #: highway-env's ``ContinuousAction`` maps steering action 1.0 to pi/4 rad.
 STEERING_RANGE_RAD = math.pi / 4
@@ -59,6 +59,8 @@ def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m
     target = lane_lookahead_point(road, vehicle, ld)
     # Rear axle: the point of highway-env's kinematic bicycle that moves along the heading.
     h = float(vehicle.heading)
-    rear = np.asarray(vehicle.position, dtype=float) - 0.5 * float(vehicle.LENGTH) * np.array([math.cos(h), math.sin(h)])
+    rear = np.asarray(vehicle.position, dtype=float) - 0.5 * float(vehicle.LENGTH) * np.array(
+        [math.cos(h), math.sin(h)]
+    )
     delta = pure_pursuit_steering((float(rear[0]), float(rear[1]), h), target, wheelbase_m=float(vehicle.LENGTH))
     return float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))

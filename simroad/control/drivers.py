@@ -49,7 +49,9 @@ class MaskDriver:
         if not env.config.longitudinal:
             raise SimroadError("env: mask drivers control speed too; create the environment with longitudinal=True.")
         self.detector = detector
-        self.controller = MaskLaneKeeper(env.camera, control or ControllerConfig(**SCENARIO_CONTROL[env.config.scenario]))
+        self.controller = MaskLaneKeeper(
+            env.camera, control or ControllerConfig(**SCENARIO_CONTROL[env.config.scenario])
+        )
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:

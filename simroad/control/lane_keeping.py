@@ -118,7 +118,9 @@ class MaskLaneKeeper:
                 self._rows.append(r)
                 self._x.append(float(x_col[r]))
         if len(self._rows) < 2:
-            raise SimroadError("camera: too few image rows see the look-ahead distances; lower the pitch or the look-aheads.")
+            raise SimroadError(
+                "camera: too few image rows see the look-ahead distances; lower the pitch or the look-aheads."
+            )
         self._rows = np.asarray(self._rows)
         self._x = np.asarray(self._x)
         self._row_y = ground[self._rows, :, 1]  # (n_rows, W) lateral position of each column
@@ -233,7 +235,9 @@ class MaskLaneKeeper:
                     norm = math.sqrt(1.0 + si * si)
                     pts.append((xi - d * si / norm, yi + d / norm))  # right normal (-s, 1)
         if not pts:  # no usable edge model: the road centre where both edges are seen
-            pts = [(xi, 0.5 * (ri + li)) for xi, ri, li in zip(x, right, left) if math.isfinite(ri) and math.isfinite(li)]
+            pts = [
+                (xi, 0.5 * (ri + li)) for xi, ri, li in zip(x, right, left) if math.isfinite(ri) and math.isfinite(li)
+            ]
         if not pts:
             return np.zeros(0), np.zeros(0)
         arr = np.asarray(sorted(pts))

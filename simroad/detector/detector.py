@@ -48,7 +48,17 @@ from simroad.filters.light import _glare_planes, _highlights_planes
 from simroad.filters.rain_snow import _rain_snow_planes
 from simroad.filters.shadow import _shadows_planes
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "DEFAULT_NONROAD_WEIGHT", "FILTERS", "FILTER_VARIANTS", "MIN_IMAGE_SIZE", "RoadDetector", "apply_filters", "default_model_path", "train_default"]
+__all__ = [
+    "DEFAULT_MAX_SAMPLES",
+    "DEFAULT_NONROAD_WEIGHT",
+    "FILTERS",
+    "FILTER_VARIANTS",
+    "MIN_IMAGE_SIZE",
+    "RoadDetector",
+    "apply_filters",
+    "default_model_path",
+    "train_default",
+]
 
 #: Filter names, in the order the pipeline applies them: rain and snow first (their
 #: bright streaks would otherwise pass for highlights in the dark channel), then
@@ -82,9 +92,7 @@ def _check_filters(filters: object) -> tuple[str, ...]:
     try:
         names = list(filters)
     except TypeError:
-        raise SimroadError(
-            f"filters: expected a sequence of filter names from {FILTERS}, got {filters!r}."
-        ) from None
+        raise SimroadError(f"filters: expected a sequence of filter names from {FILTERS}, got {filters!r}.") from None
     for name in names:
         check_choice("filters", name, FILTERS)
     return tuple(f for f in FILTERS if f in names)
@@ -99,7 +107,9 @@ def _check_variant(variant: object) -> str:
 #: each returns new planes (the light and shadow cores also return their masks).
 _FILTER_STEPS = {
     ("rain_snow", "paper"): lambda p: _rain_snow_planes(p, 2, 1e-3, 0.02, 2),
-    ("rain_snow", "improved"): lambda p: _rain_snow_planes(_haze_planes(p), 3, 1e-3, 0.07, 2, achromatic=True, protect=5),
+    ("rain_snow", "improved"): lambda p: _rain_snow_planes(
+        _haze_planes(p), 3, 1e-3, 0.07, 2, achromatic=True, protect=5
+    ),
     ("light", "paper"): lambda p: _highlights_planes(p, 7, 8, 1e-4, 2, 0.1, 2)[0],
     ("light", "improved"): lambda p: _glare_planes(p, 3, 481, 0.01, 0.98, 0.8, 2.2)[0],
     ("shadow", "paper"): lambda p: _shadows_planes(p, -1.0, 16, 5, 0.8)[0],
@@ -152,9 +162,7 @@ def _check_training_set(images: object, masks: object) -> tuple[list[np.ndarray]
     if not images:
         raise SimroadError("images: expected at least one training image, got none.")
     if len(images) != len(masks):
-        raise SimroadError(
-            f"masks: expected one mask per image ({len(images)} images), got {len(masks)} masks."
-        )
+        raise SimroadError(f"masks: expected one mask per image ({len(images)} images), got {len(masks)} masks.")
     imgs, msks = [], []
     for k, (img, msk) in enumerate(zip(images, masks)):
         img = check_image(f"images[{k}]", img, dtype=_IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
@@ -164,7 +172,11 @@ def _check_training_set(images: object, masks: object) -> tuple[list[np.ndarray]
 
 
 def _sample_pixels(
-    images: list[np.ndarray], masks: list[np.ndarray], filters: tuple[str, ...], n_max: int, rng: np.random.Generator,
+    images: list[np.ndarray],
+    masks: list[np.ndarray],
+    filters: tuple[str, ...],
+    n_max: int,
+    rng: np.random.Generator,
     variant: str = "improved",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Balanced random pixels: up to ``n_max / (2 N)`` road and non-road pixels per image."""
@@ -397,18 +409,26 @@ class RoadDetector(BaseEstimator):
         check_is_fitted(self, "lut_", msg=_NOT_FITTED)
         params = self.get_params()
         params["filters"] = list(_check_filters(params["filters"]))
-        meta = {"format": _FORMAT, "version": _FORMAT_VERSION, "params": params,
-                "features": "I, S cos H, S sin H (paper eqs. 10-12), unsmoothed",
-                "n_support": int(len(self.svm_.dual_coef))}
+        meta = {
+            "format": _FORMAT,
+            "version": _FORMAT_VERSION,
+            "params": params,
+            "features": "I, S cos H, S sin H (paper eqs. 10-12), unsmoothed",
+            "n_support": len(self.svm_.dual_coef),
+        }
         path = Path(path)
         tmp = path.with_name(path.name + ".tmp")
         with open(tmp, "wb") as fh:
             np.savez_compressed(
                 fh,
-                support_vectors=self.svm_.support_vectors, dual_coef=self.svm_.dual_coef,
-                intercept=np.float64(self.svm_.intercept), gamma=np.float64(self.svm_.gamma),
-                feature_mean=self.feature_mean_, feature_scale=self.feature_scale_,
-                meta=np.array(json.dumps(meta)), **self.lut_.to_arrays(),
+                support_vectors=self.svm_.support_vectors,
+                dual_coef=self.svm_.dual_coef,
+                intercept=np.float64(self.svm_.intercept),
+                gamma=np.float64(self.svm_.gamma),
+                feature_mean=self.feature_mean_,
+                feature_scale=self.feature_scale_,
+                meta=np.array(json.dumps(meta)),
+                **self.lut_.to_arrays(),
             )
         os.replace(tmp, path)
 

@@ -65,7 +65,9 @@ class RoadCamConfig:
             raise SimroadError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
         object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
         object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, 0.2, 3600.0, unit="s"))
-        object.__setattr__(self, "max_offroad_m", check_in_range("max_offroad_m", self.max_offroad_m, 0.0, 50.0, unit="m"))
+        object.__setattr__(
+            self, "max_offroad_m", check_in_range("max_offroad_m", self.max_offroad_m, 0.0, 50.0, unit="m")
+        )
         if self.roadside is not None:
             check_choice("roadside", self.roadside, ROADSIDE_KINDS)
         if not isinstance(self.noise, str):

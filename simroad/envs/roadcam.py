@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import cv2
 import gymnasium as gym
@@ -58,7 +58,7 @@ class RoadCamEnv(gym.Env):
     height=360, noise="rain+glare", severity=0.7)``; see :class:`RoadCamConfig`.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 5}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 5}
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None:
@@ -146,7 +146,9 @@ class RoadCamEnv(gym.Env):
         if self.world is None:
             raise SimroadError("render_bev() called before reset().")
         ego = self._box(self.vehicle, rgb=(255, 255, 255))
-        rgb, _ = render_bev(self.world, self._pose(), size=size, metres_per_px=metres_per_px, vehicles=self._others(), ego=ego)
+        rgb, _ = render_bev(
+            self.world, self._pose(), size=size, metres_per_px=metres_per_px, vehicles=self._others(), ego=ego
+        )
         return rgb
 
     def autopilot_action(self) -> np.ndarray:
@@ -170,7 +172,9 @@ class RoadCamEnv(gym.Env):
             if rgb is None:
                 rgb = tuple(int(c) for c in self._colour_rng.integers(20, 236, size=3))
                 self._vehicle_rgb[id(v)] = rgb
-        return VehicleBox(float(v.position[0]), float(v.position[1]), float(v.heading), float(v.LENGTH), float(v.WIDTH), rgb)
+        return VehicleBox(
+            float(v.position[0]), float(v.position[1]), float(v.heading), float(v.LENGTH), float(v.WIDTH), rgb
+        )
 
     def _others(self) -> list[VehicleBox]:
         ego = self.vehicle
@@ -203,10 +207,18 @@ class RoadCamEnv(gym.Env):
         if self.weather is not None:
             from simroad.noise import NoiseContext
 
-            yaw = math.atan2(math.sin(self.vehicle.heading - self._prev_heading), math.cos(self.vehicle.heading - self._prev_heading))
+            yaw = math.atan2(
+                math.sin(self.vehicle.heading - self._prev_heading), math.cos(self.vehicle.heading - self._prev_heading)
+            )
             ctx = NoiseContext(
-                camera=self.camera, depth=frame.depth, material=frame.material, vehicles=frame.vehicles,
-                ego_speed=float(self.vehicle.speed), ego_yaw_rate=yaw / self.dt, dt=self.dt, time_s=self._time,
+                camera=self.camera,
+                depth=frame.depth,
+                material=frame.material,
+                vehicles=frame.vehicles,
+                ego_speed=float(self.vehicle.speed),
+                ego_yaw_rate=yaw / self.dt,
+                dt=self.dt,
+                time_s=self._time,
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
         lat, herr, width, off = self._lane_state()

@@ -105,14 +105,30 @@ def build_winding_network(segments: list[Segment], *, lane_width_m: float = 3.5)
             if seg.turn_rad > 0:  # right turn: centre on the right
                 c = p + R * right
                 phi0 = math.atan2(p[1] - c[1], p[0] - c[0])
-                net.add_lane(fa, fb, CircularLane(c, R - hw, phi0, phi0 + d, clockwise=True, width=lane_width_m, line_types=(_S, _C)))
-                net.add_lane(oa, ob, CircularLane(c, R + hw, phi0 + d, phi0, clockwise=False, width=lane_width_m, line_types=(_N, _C)))
+                net.add_lane(
+                    fa,
+                    fb,
+                    CircularLane(c, R - hw, phi0, phi0 + d, clockwise=True, width=lane_width_m, line_types=(_S, _C)),
+                )
+                net.add_lane(
+                    oa,
+                    ob,
+                    CircularLane(c, R + hw, phi0 + d, phi0, clockwise=False, width=lane_width_m, line_types=(_N, _C)),
+                )
                 phi1 = phi0 + d
             else:  # left turn: centre on the left
                 c = p - R * right
                 phi0 = math.atan2(p[1] - c[1], p[0] - c[0])
-                net.add_lane(fa, fb, CircularLane(c, R + hw, phi0, phi0 - d, clockwise=False, width=lane_width_m, line_types=(_S, _C)))
-                net.add_lane(oa, ob, CircularLane(c, R - hw, phi0 - d, phi0, clockwise=True, width=lane_width_m, line_types=(_N, _C)))
+                net.add_lane(
+                    fa,
+                    fb,
+                    CircularLane(c, R + hw, phi0, phi0 - d, clockwise=False, width=lane_width_m, line_types=(_S, _C)),
+                )
+                net.add_lane(
+                    oa,
+                    ob,
+                    CircularLane(c, R - hw, phi0 - d, phi0, clockwise=True, width=lane_width_m, line_types=(_N, _C)),
+                )
                 phi1 = phi0 - d
             p = c + R * np.array([math.cos(phi1), math.sin(phi1)])
             h += seg.turn_rad
@@ -151,7 +167,9 @@ class WindingRoadEnv(AbstractEnv):
 
     def _reset(self) -> None:
         rng = self.np_random
-        self.segments = generate_segments(rng, length_m=self.config["road_length"], min_radius_m=self.config["min_radius"])
+        self.segments = generate_segments(
+            rng, length_m=self.config["road_length"], min_radius_m=self.config["min_radius"]
+        )
         net, self.route_nodes = build_winding_network(self.segments, lane_width_m=self.config["lane_width"])
         self.road = Road(network=net, np_random=rng, record_history=self.config["show_trajectories"])
         self._make_vehicles(rng)
@@ -160,7 +178,10 @@ class WindingRoadEnv(AbstractEnv):
         net = self.road.network
         first = ("f0", "f1", 0)
         ego = self.action_type.vehicle_class(
-            self.road, net.get_lane(first).position(20.0, 0.0), net.get_lane(first).heading_at(20.0), self.config["ego_speed"]
+            self.road,
+            net.get_lane(first).position(20.0, 0.0),
+            net.get_lane(first).heading_at(20.0),
+            self.config["ego_speed"],
         )
         self.controlled_vehicles = [ego]
         self.road.vehicles.append(ego)

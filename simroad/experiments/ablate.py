@@ -40,8 +40,8 @@ def run_cell(spec: EpisodeSpec) -> dict[str, Any]:
     try:
         record = run_episode(spec)
         record["error"] = None
-    except Exception as exc:  # noqa: BLE001 - the sweep must go on and keep the reason
-        record = {k: math.nan for k in RECORD_KEYS}
+    except Exception as exc:
+        record = dict.fromkeys(RECORD_KEYS, math.nan)
         record.update(
             scenario=spec.scenario, noise=spec.noise, severity=spec.severity if spec.noise != "clear" else 0.0,
             filters=format_filters(spec.filters), driver=spec.driver, seed=spec.seed, steps=0,
@@ -98,7 +98,7 @@ class ResultStore:
                     dirty = True
                     continue
                 done[key] = rec
-            if dirty or not self.path.read_bytes().endswith(b"\n") and done:
+            if dirty or (not self.path.read_bytes().endswith(b"\n") and done):
                 _atomic_write(self.path, "".join(json.dumps(r) + "\n" for r in done.values()))
         return done
 
@@ -165,7 +165,9 @@ def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: C
     try:
         import ray
     except ImportError:
-        raise SimroadError("backend: Ray is not installed; install the extra with pip install 'simroad[ray]'.") from None
+        raise SimroadError(
+            "backend: Ray is not installed; install the extra with pip install 'simroad[ray]'."
+        ) from None
     started = False
     if not ray.is_initialized():
         ray.init(address=address, num_cpus=None if address else workers, include_dashboard=False, log_to_driver=False)

@@ -21,13 +21,23 @@ __all__ = ["DEMO_NOISES", "write_videos"]
 DEMO_NOISES = ("clear", "rain", "snow", "shadow", "glare")
 
 
-def write_videos(out: str | Path, *, scenario: str = "winding", seed: int = 0, steps: int = 60, severity: float = 0.7) -> list[Path]:
+def write_videos(
+    out: str | Path, *, scenario: str = "winding", seed: int = 0, steps: int = 60, severity: float = 0.7
+) -> list[Path]:
     """One GIF per noise of the detector driver with all filters."""
     out = ensure_writable_dir("out", out)
     paths = []
     for noise in tqdm(DEMO_NOISES, desc="videos", unit="video"):
         path = out / f"{noise}.gif"
-        spec = EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=("shadow", "rain_snow", "light"), seed=seed, steps=steps, route_m=1e4)
+        spec = EpisodeSpec(
+            scenario=scenario,
+            noise=noise,
+            severity=severity,
+            filters=("shadow", "rain_snow", "light"),
+            seed=seed,
+            steps=steps,
+            route_m=1e4,
+        )
         run_episode(spec, video=str(path))
         paths.append(path)
     return paths

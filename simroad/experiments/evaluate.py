@@ -43,7 +43,9 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
         if bgr is None or grey is None:
             raise SimroadError(f"images: could not read {str(p)!r} or {str(m)!r}.")
         if grey.shape != bgr.shape[:2]:
-            raise SimroadError(f"masks: {m.name} is {grey.shape[::-1]} but {p.name} is {bgr.shape[1::-1]} (width x height).")
+            raise SimroadError(
+                f"masks: {m.name} is {grey.shape[::-1]} but {p.name} is {bgr.shape[1::-1]} (width x height)."
+            )
         out.images.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
         out.masks.append(grey > 127)
         out.noise_masks.append({})
@@ -73,7 +75,9 @@ def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, M
     return scores
 
 
-def evaluate_frames(frames: FrameSet, settings: Sequence[tuple[str, ...]], *, detector_factory=None) -> tuple[list[dict], list[dict]]:
+def evaluate_frames(
+    frames: FrameSet, settings: Sequence[tuple[str, ...]], *, detector_factory=None
+) -> tuple[list[dict], list[dict]]:
     """Score each filter setting's masks on ``frames``; also the filters' own masks.
 
     Returns (detector rows, filter-mask rows), each a list of dicts.
@@ -88,12 +92,20 @@ def evaluate_frames(frames: FrameSet, settings: Sequence[tuple[str, ...]], *, de
         for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
             score.update(det.predict(img), gt, valid=valid)
         s = score.summary()
-        rows.append({"filters": format_filters(filters), "frames": score.n_frames, **{k: s[k] for k in ("fnr", "fpr", "iou", "f1")}})
+        rows.append(
+            {
+                "filters": format_filters(filters),
+                "frames": score.n_frames,
+                **{k: s[k] for k in ("fnr", "fpr", "iou", "f1")},
+            }
+        )
     all_filters = sorted({f for setting in settings for f in setting})
     frows = []
     for name, score in _filter_mask_scores(frames, all_filters).items():
         s = score.summary()
-        frows.append({"mask": name, "frames": score.n_frames, **{k: s[k] for k in ("precision", "recall", "iou", "f1")}})
+        frows.append(
+            {"mask": name, "frames": score.n_frames, **{k: s[k] for k in ("precision", "recall", "iou", "f1")}}
+        )
     return rows, frows
 
 
@@ -115,7 +127,9 @@ def format_table(rows: list[dict], *, percent: Sequence[str] = ()) -> str:
     return "\n".join(lines)
 
 
-def qualitative_figure(path: str | os.PathLike, *, scenario: str = "winding", seed: int = 0, severity: float = 0.7) -> Path:
+def qualitative_figure(
+    path: str | os.PathLike, *, scenario: str = "winding", seed: int = 0, severity: float = 0.7
+) -> Path:
     """The paper's Figs. 3-6 for every noise: the noisy frame, the mask without
     filters, the mask with all filters, and the ground-truth outline."""
     import matplotlib
@@ -130,7 +144,9 @@ def qualitative_figure(path: str | os.PathLike, *, scenario: str = "winding", se
     plain, full = RoadDetector.pretrained(filters=()), RoadDetector.pretrained(filters=tuple(FILTERS))
     fig, axes = plt.subplots(len(noises), 3, figsize=(10, 1.95 * len(noises)))
     for row, noise in enumerate(noises):
-        fs = collect_frames(scenarios=(scenario,), seeds=(seed,), frames_per_seed=1, noise=noise, severity=severity, every=8)
+        fs = collect_frames(
+            scenarios=(scenario,), seeds=(seed,), frames_per_seed=1, noise=noise, severity=severity, every=8
+        )
         img, gt = fs.images[0], fs.masks[0]
         panels = (
             (overlay_frame(img, gt, None), f"{noise} (severity {severity:g}), GT outline"),

@@ -22,7 +22,9 @@ def ensure_writable_dir(name: str, path: str | os.PathLike) -> Path:
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise SimroadError(f"{name}: cannot create directory {str(p)!r} ({exc.strerror}). Choose a writable path.") from None
+        raise SimroadError(
+            f"{name}: cannot create directory {str(p)!r} ({exc.strerror}). Choose a writable path."
+        ) from None
     if not p.is_dir() or not os.access(p, os.W_OK):
         raise SimroadError(f"{name}: {str(p)!r} is not a writable directory. Choose a writable path.")
     return p
@@ -80,7 +82,9 @@ def export_frames(
         _write_png(out_dir / f"frame_{k:04d}.png", obs)
         _write_png(out_dir / f"road_{k:04d}.png", info["road_mask"].astype(np.uint8) * 255)
         x, y, h = (float(v) for v in info["pose"])
-        frames_meta.append({"index": k, "x_m": x, "y_m": y, "heading_rad": h, "time_s": info["time_s"], "speed_m_s": info["speed_m_s"]})
+        frames_meta.append(
+            {"index": k, "x_m": x, "y_m": y, "heading_rad": h, "time_s": info["time_s"], "speed_m_s": info["speed_m_s"]}
+        )
     c = cam.config
     meta = {
         "seed": int(seed),

@@ -5,8 +5,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
-
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
 
 __all__ = ["camera_figure"]
@@ -24,7 +22,9 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
 
     out = Path(out)
     ensure_writable_dir("out", out.parent if str(out.parent) else ".")
-    fig, axes = plt.subplots(len(SCENARIO_NAMES), 3, figsize=(11, 2.3 * len(SCENARIO_NAMES)), gridspec_kw={"width_ratios": [16, 16, 6]})
+    fig, axes = plt.subplots(
+        len(SCENARIO_NAMES), 3, figsize=(11, 2.3 * len(SCENARIO_NAMES)), gridspec_kw={"width_ratios": [16, 16, 6]}
+    )
     for row, scenario in enumerate(SCENARIO_NAMES):
         env = RoadCamEnv(scenario=scenario, render_mode="rgb_array")
         obs, _ = env.reset(seed=seed + row)

@@ -153,7 +153,9 @@ def filter_effect_table(
 
 def format_filter_effect(rows: Sequence[dict]) -> str:
     """A plain-text table of :func:`filter_effect_table` rows, rates in percent."""
-    head = f"{'noise':<7} {'filters':<22} {'frames':>6} {'FNR off':>8} {'FPR off':>8} {'FNR on':>8} {'FPR on':>8}  better"
+    head = (
+        f"{'noise':<7} {'filters':<22} {'frames':>6} {'FNR off':>8} {'FPR off':>8} {'FNR on':>8} {'FPR on':>8}  better"
+    )
     lines = [head]
     for r in rows:
         a, b = r["without"], r["with"]

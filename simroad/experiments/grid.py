@@ -74,7 +74,14 @@ class AblationGrid:
             for noise in self.noises:
                 for severity in (0.0,) if noise == "clear" else self.severities:
                     for seed in range(self.seed_start, self.seed_start + self.seeds):
-                        base = dict(scenario=scenario, noise=noise, severity=severity, seed=seed, steps=self.steps, traffic=self.traffic)
+                        base = dict(
+                            scenario=scenario,
+                            noise=noise,
+                            severity=severity,
+                            seed=seed,
+                            steps=self.steps,
+                            traffic=self.traffic,
+                        )
                         if self.oracle:
                             out.append(EpisodeSpec(driver="oracle", **base))
                         for f in self.filters:
@@ -119,4 +126,3 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
             raise SimroadError(f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}")
         out[k] = value
     return out
-

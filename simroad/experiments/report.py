@@ -85,7 +85,9 @@ def _fmt(mean: float, half: float, pct: bool) -> str:
         return "–"
     k = 100.0 if pct else 1.0
     text = f"{mean * k:.2f}" if pct else f"{mean:.3f}"
-    return text + (f" ± {half * k:.2f}" if pct and math.isfinite(half) else f" ± {half:.3f}" if math.isfinite(half) else "")
+    return text + (
+        f" ± {half * k:.2f}" if pct and math.isfinite(half) else f" ± {half:.3f}" if math.isfinite(half) else ""
+    )
 
 
 def _write_md(rows: list[dict], path: Path) -> None:
@@ -104,14 +106,20 @@ def _write_md(rows: list[dict], path: Path) -> None:
             _fmt(r["driving_score"], r["driving_score_ci95"], False),
         ]
         lines.append("| " + " | ".join(cells) + " |")
-    text = "# Ablation summary\n\nMean ± 95 % confidence half-width over seeds (Student t).\n\n" + "\n".join(lines) + "\n"
+    text = (
+        "# Ablation summary\n\nMean ± 95 % confidence half-width over seeds (Student t).\n\n" + "\n".join(lines) + "\n"
+    )
     path.write_text(text)
 
 
 def _write_md_with_headline(records: list[dict], rows: list[dict], path: Path) -> None:
     _write_md(rows, path)
     body = path.read_text().split("\n", 2)[2]
-    intro = "# Ablation summary\n\n## At a glance (means over scenarios and seeds)\n\n" + headline(records) + "\n\n## Per cell\n"
+    intro = (
+        "# Ablation summary\n\n## At a glance (means over scenarios and seeds)\n\n"
+        + headline(records)
+        + "\n\n## Per cell\n"
+    )
     path.write_text(intro + body)
 
 
@@ -121,7 +129,10 @@ def headline(records: list[dict]) -> str:
     no filters, all filters and the oracle."""
     ok = [r for r in records if not r.get("error")]
     cells = sorted({(r["noise"], r["severity"]) for r in ok}, key=lambda c: (c[0] != "clear", c[0], c[1]))
-    filters = sorted({r["filters"] for r in ok if r["driver"] == "detector"}, key=lambda f: (f != "none", f == "shadow+rain_snow+light", f))
+    filters = sorted(
+        {r["filters"] for r in ok if r["driver"] == "detector"},
+        key=lambda f: (f != "none", f == "shadow+rain_snow+light", f),
+    )
     short = {"shadow+rain_snow+light": "all"}
     head = ["noise", "severity"] + [f"FNR / FPR % ({short.get(f, f)})" for f in filters]
     head += ["off-road % (none / all / oracle)", "driving score (none / all / oracle)"]
@@ -131,7 +142,11 @@ def headline(records: list[dict]) -> str:
         row = [noise, f"{sev:g}"]
         for f in filters:
             det = [r for r in rs if r["driver"] == "detector" and r["filters"] == f]
-            row.append(f"{100 * np.mean([r['fnr'] for r in det]):.1f} / {100 * np.mean([r['fpr'] for r in det]):.1f}" if det else "–")
+            row.append(
+                f"{100 * np.mean([r['fnr'] for r in det]):.1f} / {100 * np.mean([r['fpr'] for r in det]):.1f}"
+                if det
+                else "–"
+            )
         groups = [[r for r in rs if r["driver"] == "detector" and r["filters"] == "none"],
                   [r for r in rs if r["driver"] == "detector" and r["filters"] == "shadow+rain_snow+light"],
                   [r for r in rs if r["driver"] == "oracle"]]  # fmt: skip
@@ -185,13 +200,22 @@ def _safety_figure(records: list[dict], path: Path) -> None:
     for col, noise in enumerate(noises):
         rs = [r for r in ok if r["noise"] == noise] + clear
         sevs = sorted({r["severity"] for r in rs})
-        for row, (metric, label) in enumerate((("offroad_fraction", "off-road fraction"), ("driving_score", "driving score"))):
+        for row, (metric, label) in enumerate(
+            (("offroad_fraction", "off-road fraction"), ("driving_score", "driving score"))
+        ):
             ax = axes[row][col]
             for name, pick in lines:
                 stats = [_mean_ci([r[metric] for r in rs if pick(r) and r["severity"] == s]) for s in sevs]
                 if all(not math.isfinite(m) for m, _ in stats):
                     continue
-                ax.errorbar(sevs, [m for m, _ in stats], yerr=[h if math.isfinite(h) else 0 for _, h in stats], marker="o", capsize=3, label=name)
+                ax.errorbar(
+                    sevs,
+                    [m for m, _ in stats],
+                    yerr=[h if math.isfinite(h) else 0 for _, h in stats],
+                    marker="o",
+                    capsize=3,
+                    label=name,
+                )
             ax.set_xlabel("severity")
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
@@ -215,7 +239,12 @@ def build_report(directory: str | os.PathLike) -> dict[str, Path]:
     if not records:
         raise SimroadError(f"dir: {str(store.path)!r} holds no finished episode yet.")
     rows = summarise(records)
-    out = {"summary.csv": d / "summary.csv", "summary.md": d / "summary.md", "error_rates.png": d / "error_rates.png", "safety.png": d / "safety.png"}
+    out = {
+        "summary.csv": d / "summary.csv",
+        "summary.md": d / "summary.md",
+        "error_rates.png": d / "error_rates.png",
+        "safety.png": d / "safety.png",
+    }
     _write_csv(rows, out["summary.csv"])
     _write_md_with_headline(records, rows, out["summary.md"])
     _error_rates_figure(records, out["error_rates.png"])

@@ -12,7 +12,7 @@ from simroad.experiments.frames import collect_frames
 __all__ = ["TRAIN_SEEDS", "train_detector"]
 
 #: Seeds of the shipped model's training worlds; evaluation uses seeds >= 100.
-TRAIN_SEEDS = tuple(range(0, 16))
+TRAIN_SEEDS = tuple(range(16))
 
 
 def train_detector(

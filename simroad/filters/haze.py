@@ -54,8 +54,15 @@ _SCALE = 4  # statistics at a quarter of the width
 _MAX_SKY_SATURATION = 0.15
 
 
-def _transmission(planes, percentile: float, t_min: float, tolerance: float, gamma: float,
-                  max_sky_saturation: float = _MAX_SKY_SATURATION, scale: int = _SCALE):
+def _transmission(
+    planes,
+    percentile: float,
+    t_min: float,
+    tolerance: float,
+    gamma: float,
+    max_sky_saturation: float = _MAX_SKY_SATURATION,
+    scale: int = _SCALE,
+):
     """Per-row transmission ``t`` (H,) float32 and airlight ``A`` (3,) in linear radiance, or None."""
     h, w = planes[0].shape
     sh, sw = h, max(1, w // scale)  # every row kept: t changes fast near the horizon

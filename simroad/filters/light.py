@@ -323,9 +323,7 @@ def _lobe_estimate(lin, fine, wide, min_excess, saturation, raw):
     if base.size < 8:
         return None
     strong = base > np.percentile(base, 70)
-    colour = np.array(
-        [float(np.median(x[unsat][strong] / np.maximum(base[strong], 1e-6))) for x in lifts], np.float32
-    )
+    colour = np.array([float(np.median(x[unsat][strong] / np.maximum(base[strong], 1e-6))) for x in lifts], np.float32)
     return excess, region, np.clip(colour, 1.0, _MAX_TINT)
 
 
@@ -354,11 +352,15 @@ def _glare_planes(planes, fine, wide, min_excess, saturation, core, gamma, scale
     # Saturated pixels keep nothing of the surface: fill them from their surroundings
     # (at quarter resolution: the fill is smooth anyway).
     qh, qw = max(1, h // 4), max(1, w // 4)
-    clipped = cv2.resize(((channel_min(small) >= core) & region).view(np.uint8), (qw, qh), interpolation=cv2.INTER_NEAREST)
+    clipped = cv2.resize(
+        ((channel_min(small) >= core) & region).view(np.uint8), (qw, qh), interpolation=cv2.INTER_NEAREST
+    )
     if clipped.any():
         clipped = cv2.dilate(clipped, np.ones((3, 3), np.uint8))
         reduced = cv2.merge([cv2.resize(o, (qw, qh), interpolation=cv2.INTER_AREA) for o in out])
-        filled = cv2.inpaint(cv2.convertScaleAbs(np.clip(reduced, 0.0, 1.0), alpha=255.0), clipped, 2, cv2.INPAINT_TELEA)
+        filled = cv2.inpaint(
+            cv2.convertScaleAbs(np.clip(reduced, 0.0, 1.0), alpha=255.0), clipped, 2, cv2.INPAINT_TELEA
+        )
         where = cv2.resize(clipped, (w, h), interpolation=cv2.INTER_NEAREST) > 0
         fill_full = cv2.resize(filled, (w, h), interpolation=cv2.INTER_LINEAR)
         for c, o in enumerate(out):

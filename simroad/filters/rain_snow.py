@@ -79,8 +79,13 @@ __all__ = ["remove_rain_snow"]
 
 
 def _rain_snow_planes(
-    planes: list[np.ndarray], radius: int, eps: float, tolerance: float | None, subsample: int = 1,
-    achromatic: bool = False, protect: int = 0,
+    planes: list[np.ndarray],
+    radius: int,
+    eps: float,
+    tolerance: float | None,
+    subsample: int = 1,
+    achromatic: bool = False,
+    protect: int = 0,
 ) -> list[np.ndarray]:
     """Core of :func:`remove_rain_snow` on float32 planes in [0, 1]; new planes, not clipped."""
     guide_f = channel_max(planes) - channel_min(planes)  # Xu et al.: I_f = max_c I - min_c I

@@ -6,4 +6,12 @@ from __future__ import annotations
 from simroad.metrics.mask import MaskScore, confusion, error_rates, rates_from_counts
 from simroad.metrics.safety import PENALTIES, SafetyScore, footprint_corners
 
-__all__ = ["PENALTIES", "MaskScore", "SafetyScore", "confusion", "error_rates", "footprint_corners", "rates_from_counts"]
+__all__ = [
+    "PENALTIES",
+    "MaskScore",
+    "SafetyScore",
+    "confusion",
+    "error_rates",
+    "footprint_corners",
+    "rates_from_counts",
+]

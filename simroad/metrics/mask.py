@@ -138,7 +138,10 @@ class MaskScore:
         if not isinstance(other, MaskScore):
             raise SimroadError(f"other: expected a MaskScore, got {type(other).__name__}.")
         return MaskScore(
-            self.tp + other.tp, self.fp + other.fp, self.fn + other.fn, self.tn + other.tn,
+            self.tp + other.tp,
+            self.fp + other.fp,
+            self.fn + other.fn,
+            self.tn + other.tn,
             [dict(f) for f in self.frames + other.frames],
         )
 

@@ -51,7 +51,9 @@ def footprint_corners(vehicle) -> np.ndarray:
     right = np.array([-math.sin(h), math.cos(h)])
     hl, hw = vehicle.LENGTH / 2.0, vehicle.WIDTH / 2.0
     c = np.asarray(vehicle.position, dtype=float)
-    return np.array([c + hl * fwd - hw * right, c + hl * fwd + hw * right, c - hl * fwd + hw * right, c - hl * fwd - hw * right])
+    return np.array(
+        [c + hl * fwd - hw * right, c + hl * fwd + hw * right, c - hl * fwd + hw * right, c - hl * fwd - hw * right]
+    )
 
 
 def _on_road(network, pts: np.ndarray) -> np.ndarray:

@@ -72,7 +72,9 @@ def _finish(polys: np.ndarray, penumbra: np.ndarray) -> Shadows:
     return Shadows(polys, penumbra, bbox)
 
 
-def sphere_shadows(centre: np.ndarray, height: np.ndarray, radius: np.ndarray, sun: tuple[float, float], sun_diam_rad: float) -> Shadows:
+def sphere_shadows(
+    centre: np.ndarray, height: np.ndarray, radius: np.ndarray, sun: tuple[float, float], sun_diam_rad: float
+) -> Shadows:
     """Elliptic shadows of spheres; ``sun = (azimuth, elevation)`` in rad."""
     az, el = sun
     s = np.array([math.cos(az), math.sin(az)])
@@ -86,7 +88,9 @@ def sphere_shadows(centre: np.ndarray, height: np.ndarray, radius: np.ndarray, s
     return _finish(polys, height / sin_e * math.tan(sun_diam_rad))
 
 
-def prism_shadows(footprints: list[np.ndarray], z0: np.ndarray, z1: np.ndarray, sun: tuple[float, float], sun_diam_rad: float) -> Shadows:
+def prism_shadows(
+    footprints: list[np.ndarray], z0: np.ndarray, z1: np.ndarray, sun: tuple[float, float], sun_diam_rad: float
+) -> Shadows:
     """Shadows of vertical prisms (convex footprint (K, 2), heights z0 < z1, m)."""
     if not footprints:
         return Shadows.empty()
@@ -142,13 +146,17 @@ class RoadIndex:
         out = np.full(len(pts), np.inf)
         b = self.bboxes
         for k, (x, y) in enumerate(pts):
-            near = np.flatnonzero((b[:, 0] - reach <= x) & (b[:, 2] + reach >= x) & (b[:, 1] - reach <= y) & (b[:, 3] + reach >= y))
+            near = np.flatnonzero(
+                (b[:, 0] - reach <= x) & (b[:, 2] + reach >= x) & (b[:, 1] - reach <= y) & (b[:, 3] + reach >= y)
+            )
             for c in near:
                 d = -cv2.pointPolygonTest(self.contours[c], (float(x), float(y)), True) - self.shoulder_m
                 out[k] = min(out[k], d)
         return np.where(out < 0, -1.0, out)
 
-    def crossing_in(self, box: tuple[float, float, float, float], rng: np.random.Generator) -> tuple[np.ndarray, float] | None:
+    def crossing_in(
+        self, box: tuple[float, float, float, float], rng: np.random.Generator
+    ) -> tuple[np.ndarray, float] | None:
         """A random lane-centre point in ``box`` and the lane's heading there."""
         if self.straight:
             if box[1] > 0 or box[3] < 0:

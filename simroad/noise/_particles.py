@@ -299,7 +299,12 @@ def streaks(
     # Samples off the image are dropped when splatting; clipping only bounds the
     # work of streaks much longer than the image.
     out = np.abs(ue - us) + np.abs(ve - vs) > W + H
-    out &= (np.minimum(us, ue) < lo_u) | (np.maximum(us, ue) > hi_u) | (np.minimum(vs, ve) < lo_v) | (np.maximum(vs, ve) > hi_v)
+    out &= (
+        (np.minimum(us, ue) < lo_u)
+        | (np.maximum(us, ue) > hi_u)
+        | (np.minimum(vs, ve) < lo_v)
+        | (np.maximum(vs, ve) > hi_v)
+    )
     if not out.any():
         return us, vs, ue, ve, width, beta
     o = np.flatnonzero(out)

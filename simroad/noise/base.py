@@ -193,8 +193,7 @@ class NoiseContext:
     def __post_init__(self) -> None:
         if self.camera is not None and not isinstance(self.camera, PinholeCamera):
             raise SimroadError(
-                f"camera: expected a simroad.camera.PinholeCamera or None, got "
-                f"{type(self.camera).__name__}."
+                f"camera: expected a simroad.camera.PinholeCamera or None, got {type(self.camera).__name__}."
             )
         if self.depth is not None:
             _check_plane("depth", self.depth, kinds="f")
@@ -339,8 +338,7 @@ class NoiseModel:
     def __init__(self, params: Params) -> None:
         if not isinstance(params, self.params_type):
             raise SimroadError(
-                f"params: the {self.name!r} model takes {self.params_type.__name__}, "
-                f"got {type(params).__name__}."
+                f"params: the {self.name!r} model takes {self.params_type.__name__}, got {type(params).__name__}."
             )
         self.params = params
         self._rng: np.random.Generator | None = None
@@ -491,4 +489,3 @@ def _material_lut(items: tuple[tuple[int, float], ...]) -> np.ndarray:
         lut[code] = wgt
     lut.flags.writeable = False
     return lut
-

@@ -57,7 +57,9 @@ def parse_noise(spec: str) -> tuple[str, ...]:
         check_choice("noise", p, NOISE_NAMES)
     dup = sorted({p for p in parts if parts.count(p) > 1})
     if dup:
-        raise SimroadError(f"noise: {', '.join(map(repr, dup))} given more than once in {spec!r}; name each noise once.")
+        raise SimroadError(
+            f"noise: {', '.join(map(repr, dup))} given more than once in {spec!r}; name each noise once."
+        )
     if "clear" in parts:
         if len(parts) > 1:
             raise SimroadError(f"noise: 'clear' cannot be combined with other noises, got {spec!r}.")

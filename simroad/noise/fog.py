@@ -132,4 +132,3 @@ class FogModel(NoiseModel):
     def atmosphere(self, state: FrameState) -> None:
         p = self.params
         koschmieder(state.lin, state.depth, p.beta_ext, p.airlight, sky_path_m=p.sky_path_m)
-

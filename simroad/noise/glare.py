@@ -157,7 +157,11 @@ class GlareParams(Params):
 
     def __post_init__(self) -> None:
         if self.sun_azimuth_deg is not None:
-            object.__setattr__(self, "sun_azimuth_deg", check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"))
+            object.__setattr__(
+                self,
+                "sun_azimuth_deg",
+                check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"),
+            )
         for name, lo, hi, unit in (
             ("sun_elevation_deg", 0.5, 89.0, "degrees"),
             ("sun_sky_ratio", 0.0, 50.0, ""),

@@ -102,7 +102,11 @@ class ShadowParams(Params):
 
     def __post_init__(self) -> None:
         if self.sun_azimuth_deg is not None:
-            object.__setattr__(self, "sun_azimuth_deg", check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"))
+            object.__setattr__(
+                self,
+                "sun_azimuth_deg",
+                check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"),
+            )
         for name, lo, hi, unit in (
             ("sun_elevation_deg", 2.0, 89.0, "degrees"),
             ("occluders_per_100m", 0.0, 100.0, ""),
@@ -220,7 +224,11 @@ class ShadowModel(NoiseModel):
         az = rng.uniform(0.0, 2 * math.pi) if p.sun_azimuth_deg is None else math.radians(p.sun_azimuth_deg)
         self.sun = (az, math.radians(p.sun_elevation_deg))
         w = self._world
-        self._road = RoadIndex(None) if w is None else RoadIndex(w.shapes, getattr(getattr(w, "palette", None), "shoulder_width_m", 1.0))
+        self._road = (
+            RoadIndex(None)
+            if w is None
+            else RoadIndex(w.shapes, getattr(getattr(w, "palette", None), "shoulder_width_m", 1.0))
+        )
         self._cells: OrderedDict[tuple[int, int], Shadows] = OrderedDict()
         self._coverage: np.ndarray | None = None
         self._gathered: tuple = (None, Shadows.empty())
@@ -267,7 +275,9 @@ class ShadowModel(NoiseModel):
         if not boxes:
             return Shadows.empty()
         z1 = np.array([b[1] for b in boxes])
-        return prism_shadows([b[0] for b in boxes], np.zeros(len(boxes)), z1, self.sun, math.radians(p.sun_diameter_deg))
+        return prism_shadows(
+            [b[0] for b in boxes], np.zeros(len(boxes)), z1, self.sun, math.radians(p.sun_diameter_deg)
+        )
 
     def world_shadows(self, state: FrameState) -> Shadows:
         """All shadow polygons that may fall into the current view (world metres)."""

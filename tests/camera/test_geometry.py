@@ -88,7 +88,13 @@ def test_world_to_camera_height_goes_up_in_the_image():
 
 @pytest.mark.parametrize(
     "kw, name",
-    [({"width": 2000}, "width"), ({"height": 8}, "height"), ({"hfov_deg": 170}, "hfov_deg"), ({"pitch_deg": -20}, "pitch_deg"), ({"pitch_deg": float("nan")}, "pitch_deg")],
+    [
+        ({"width": 2000}, "width"),
+        ({"height": 8}, "height"),
+        ({"hfov_deg": 170}, "hfov_deg"),
+        ({"pitch_deg": -20}, "pitch_deg"),
+        ({"pitch_deg": float("nan")}, "pitch_deg"),
+    ],
 )
 def test_out_of_range_camera_options_name_the_parameter_and_range(kw, name):
     with pytest.raises(SimroadError, match=name) as err:

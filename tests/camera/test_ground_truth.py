@@ -30,12 +30,12 @@ def test_road_mask_agrees_with_lane_geometry(scenario):
     agree, total = 0, 0
     for seed in (0, 1, 2):
         env = RoadCamEnv(scenario=scenario, traffic=True)
-        obs, info = env.reset(seed=seed)
+        _obs, info = env.reset(seed=seed)
         rng = np.random.default_rng(seed)
         for step in range(3):
             if step:
                 for _ in range(4):
-                    obs, _, term, trunc, info = env.step(env.autopilot_action())
+                    _obs, _, _term, _trunc, info = env.step(env.autopilot_action())
             valid = env.camera.ground_valid & (info["material"] != VEHICLE)
             v, u = np.nonzero(valid)
             pick = rng.choice(len(u), size=400, replace=False)

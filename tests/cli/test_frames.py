@@ -14,7 +14,24 @@ from simroad.cli.main import main
 
 def test_frames_writes_pngs_masks_and_meta(tmp_path):
     out = tmp_path / "ds"
-    code = main(["frames", "--scenario", "winding", "--seed", "3", "--count", "4", "--out", str(out), "--quiet", "--width", "160", "--height", "90"])
+    code = main(
+        [
+            "frames",
+            "--scenario",
+            "winding",
+            "--seed",
+            "3",
+            "--count",
+            "4",
+            "--out",
+            str(out),
+            "--quiet",
+            "--width",
+            "160",
+            "--height",
+            "90",
+        ]
+    )
     assert code == 0
     for k in range(4):
         frame = cv2.imread(str(out / f"frame_{k:04d}.png"))

@@ -17,7 +17,7 @@ from simroad.envs import RoadCamEnv
 def test_pick_run_contains_expected_position_and_bridges_slivers():
     y = np.linspace(-10, 10, 201)  # 0.1 m per column
     row = (np.abs(y) < 6) & ~((y > 1.95) & (y < 2.25))  # a 0.3 m sliver at y = 2.1
-    row |= (y > 8.0)  # another road far right
+    row |= y > 8.0  # another road far right
     a, b = _pick_run(row, y, expect_y=0.0)
     assert y[a] == pytest.approx(-5.9) and y[b] == pytest.approx(5.9)  # sliver bridged
     assert _pick_run(row, y, expect_y=9.0)[0] == int(np.argmax(y > 8.0))
@@ -64,9 +64,9 @@ def test_controller_brakes_for_a_car_in_its_corridor_not_beside_it():
 
 def test_read_path_matches_the_true_lane_centre_on_a_curve():
     env = RoadCamEnv(scenario="winding", longitudinal=True, traffic=False)
-    obs, info = env.reset(seed=4)
+    _obs, info = env.reset(seed=4)
     for _ in range(25):
-        obs, _, _, _, info = env.step(np.array([env.autopilot_action()[0], 0.0], dtype=np.float32))
+        _obs, _, _, _, info = env.step(np.array([env.autopilot_action()[0], 0.0], dtype=np.float32))
     ctl = MaskLaneKeeper(env.camera, ControllerConfig(**SCENARIO_CONTROL["winding"]))
     est = ctl.read_path(info["road_mask"])
     assert len(est.x_m) >= 5
@@ -75,7 +75,11 @@ def test_read_path_matches_the_true_lane_centre_on_a_curve():
     net = env.highway_env.road.network
     errs = []
     for x, y in zip(est.x_m, est.centre_y_m):
-        world = np.asarray(v.position) + x * np.array([math.cos(h), math.sin(h)]) + y * np.array([-math.sin(h), math.cos(h)])
+        world = (
+            np.asarray(v.position)
+            + x * np.array([math.cos(h), math.sin(h)])
+            + y * np.array([-math.sin(h), math.cos(h)])
+        )
         lane = net.get_lane(net.get_closest_lane_index(world, h))
         errs.append(abs(lane.local_coordinates(world)[1]))
     assert np.median(errs) < 0.15 and max(errs) < 0.5

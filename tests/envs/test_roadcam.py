@@ -77,7 +77,7 @@ def test_autopilot_keeps_the_winding_road():
     env.reset(seed=3)
     offsets = []
     for _ in range(100):
-        _, _, terminated, truncated, info = env.step(env.autopilot_action())
+        _, _, terminated, _truncated, info = env.step(env.autopilot_action())
         offsets.append(abs(info["lateral_offset_m"]))
         assert not terminated
     assert max(offsets) < 0.6
@@ -89,7 +89,7 @@ def test_make_vec(mode):
     obs, info = envs.reset(seed=[1, 2])
     assert obs.shape == (2, 36, 64, 3)
     assert info["road_mask"].shape == (2, 36, 64)
-    obs, rew, term, trunc, info = envs.step(np.zeros((2, 1), dtype=np.float32))
+    obs, rew, _term, _trunc, info = envs.step(np.zeros((2, 1), dtype=np.float32))
     assert obs.shape == (2, 36, 64, 3) and rew.shape == (2,)
     envs.close()
 
@@ -111,7 +111,13 @@ def test_unknown_scenario_lists_valid_ones_with_suggestion():
 
 @pytest.mark.parametrize(
     "kw, name",
-    [({"width": 4000}, "width"), ({"height": 0}, "height"), ({"hfov_deg": 5}, "hfov_deg"), ({"pitch_deg": 60}, "pitch_deg"), ({"severity": 1.5}, "severity")],
+    [
+        ({"width": 4000}, "width"),
+        ({"height": 0}, "height"),
+        ({"hfov_deg": 5}, "hfov_deg"),
+        ({"pitch_deg": 60}, "pitch_deg"),
+        ({"severity": 1.5}, "severity"),
+    ],
 )
 def test_out_of_range_options_name_the_parameter(kw, name):
     with pytest.raises(SimroadError, match=name):

@@ -31,7 +31,7 @@ def test_segments_meet_the_spec(seed):
 
 def test_oncoming_lane_lies_beside_the_forward_lane():
     segs = generate_segments(np.random.default_rng(1))
-    net, nodes = build_winding_network(segs, lane_width_m=3.5)
+    net, _nodes = build_winding_network(segs, lane_width_m=3.5)
     for k in range(len(segs)):
         f = net.get_lane((f"f{k}", f"f{k + 1}", 0))
         o = net.get_lane((f"o{k + 1}", f"o{k}", 0))

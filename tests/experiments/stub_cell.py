@@ -13,7 +13,7 @@ def stub_cell(spec):
         raise_in = True
     else:
         raise_in = False
-    record = {k: 0.0 for k in RECORD_KEYS}
+    record = dict.fromkeys(RECORD_KEYS, 0.0)
     record.update(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, filters=format_filters(spec.filters),
                   driver=spec.driver, seed=spec.seed, steps=spec.steps)  # fmt: skip
     record["fnr"] = (spec.seed * 7919 % 101) / 1000.0

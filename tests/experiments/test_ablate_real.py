@@ -11,7 +11,9 @@ from simroad.cli.main import main
 from simroad.experiments.ablate import run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
 
-GRID = AblationGrid(scenarios=("winding",), noises=("clear", "rain"), severities=(0.6,), filters=("none", "all"), seeds=1, steps=6)
+GRID = AblationGrid(
+    scenarios=("winding",), noises=("clear", "rain"), severities=(0.6,), filters=("none", "all"), seeds=1, steps=6
+)
 TIMING = {"detect_ms_median", "step_ms_median", "wall_s"}
 
 

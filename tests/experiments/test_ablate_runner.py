@@ -21,7 +21,14 @@ HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 from stub_cell import stub_cell  # noqa: E402
 
-GRID = AblationGrid(scenarios=("racetrack",), noises=("clear", "rain"), severities=(0.4, 0.8), filters=("none", "all"), seeds=10, steps=5)
+GRID = AblationGrid(
+    scenarios=("racetrack",),
+    noises=("clear", "rain"),
+    severities=(0.4, 0.8),
+    filters=("none", "all"),
+    seeds=10,
+    steps=5,
+)
 
 
 def _rows(path: Path) -> list[dict]:
@@ -102,7 +109,9 @@ def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
 
 def test_store_repair_keeps_valid_rows_only(tmp_path):
     store = ResultStore(tmp_path)
-    store.append({"scenario": "racetrack", "noise": "clear", "severity": 0.0, "filters": "none", "driver": "oracle", "seed": 1})
+    store.append(
+        {"scenario": "racetrack", "noise": "clear", "severity": 0.0, "filters": "none", "driver": "oracle", "seed": 1}
+    )
     with open(store.path, "a") as fh:
         fh.write('{"scenario": "racetr')
     done = store.repair()

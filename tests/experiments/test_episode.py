@@ -20,7 +20,15 @@ SHORT = 6
 
 @pytest.mark.parametrize("scenario, noise", list(itertools.product(SCENARIO_NAMES, NOISE_NAMES)))
 def test_short_headless_episode_of_every_scenario_and_noise(scenario, noise):
-    spec = EpisodeSpec(scenario=scenario, noise=noise, severity=0.6, filters=("shadow", "rain_snow", "light"), steps=SHORT, seed=1, route_m=1e4)
+    spec = EpisodeSpec(
+        scenario=scenario,
+        noise=noise,
+        severity=0.6,
+        filters=("shadow", "rain_snow", "light"),
+        steps=SHORT,
+        seed=1,
+        route_m=1e4,
+    )
     rec = run_episode(spec)
     assert tuple(rec) == RECORD_KEYS
     assert rec["steps"] == SHORT and rec["noise"] == noise
@@ -57,7 +65,19 @@ def test_custom_callable_driver():
 
 
 def test_require_gate_exit_codes(capsys):
-    args = ["episode", "--scenario", "highway", "--driver", "oracle", "--steps", "5", "--route-m", "1000", "--no-traffic", "--json"]
+    args = [
+        "episode",
+        "--scenario",
+        "highway",
+        "--driver",
+        "oracle",
+        "--steps",
+        "5",
+        "--route-m",
+        "1000",
+        "--no-traffic",
+        "--json",
+    ]
     assert main(args + ["--require", "offroad_fraction<=0.01"]) == 0
     assert main(args + ["--require", "fnr>0.5", "--require", "steps<3"]) == 1
     err = capsys.readouterr().err
@@ -92,6 +112,8 @@ def test_parse_filters():
 def test_requirement_parser():
     r = parse_requirement("offroad_fraction <= 0.01", valid_keys=RECORD_KEYS)
     assert check_requirements({"offroad_fraction": 0.0}, [r]) == []
-    assert check_requirements({"offroad_fraction": 0.5}, [r]) == ["requirement offroad_fraction<=0.01 violated: offroad_fraction = 0.5"]
+    assert check_requirements({"offroad_fraction": 0.5}, [r]) == [
+        "requirement offroad_fraction<=0.01 violated: offroad_fraction = 0.5"
+    ]
     # min_ttc_s is None when nothing ever closed in: that is infinitely safe
     assert check_requirements({"min_ttc_s": None}, [parse_requirement("min_ttc_s>=2", valid_keys=RECORD_KEYS)]) == []

@@ -52,7 +52,10 @@ def test_improved_rain_snow_filter_lifts_the_snow_veil(cache):
 
 def test_table_rows_and_format(cache):
     rows = filter_effect_table(seeds=(110,), frames=2, severity=0.6, noises=("shadow",), cache=cache)
-    assert [(r["noise"], r["filters"]) for r in rows] == [("shadow", ("shadow",)), ("shadow", ("rain_snow", "light", "shadow"))]
+    assert [(r["noise"], r["filters"]) for r in rows] == [
+        ("shadow", ("shadow",)),
+        ("shadow", ("rain_snow", "light", "shadow")),
+    ]
     text = format_filter_effect(rows)
     assert text.splitlines()[0].split()[:2] == ["noise", "filters"] and len(text.splitlines()) == 3
 

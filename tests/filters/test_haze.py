@@ -86,7 +86,12 @@ def test_input_is_not_modified_and_dtype_kept():
 
 @pytest.mark.parametrize(
     "kwargs,match",
-    [({"percentile": 80}, "percentile"), ({"t_min": 0.0}, "t_min"), ({"tolerance": -1}, "tolerance"), ({"gamma": 5}, "gamma")],
+    [
+        ({"percentile": 80}, "percentile"),
+        ({"t_min": 0.0}, "t_min"),
+        ({"tolerance": -1}, "tolerance"),
+        ({"gamma": 5}, "gamma"),
+    ],
 )
 def test_bad_parameters_are_named(kwargs, match):
     with pytest.raises(SimroadError, match=match):

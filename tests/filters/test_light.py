@@ -34,7 +34,7 @@ def test_dark_channel_matches_naive_loop(patch, dtype):
 
 
 def test_dark_channel_rejects_even_patch():
-    with pytest.raises(SimroadError, match="patch: expected an odd window size, got 4. Use 5."):
+    with pytest.raises(SimroadError, match=r"patch: expected an odd window size, got 4\. Use 5\."):
         dark_channel(np.zeros((5, 5, 3), np.uint8), 4)
 
 
@@ -85,7 +85,7 @@ def test_remove_highlights_keeps_achromatic_surfaces():
 
 @pytest.mark.parametrize("subsample,atol", [(1, 1e-6), (2, 0.02)])
 def test_chromaticity_estimate_on_the_highlight_box_equals_the_whole_image(subsample, atol):
-    image, _, spot = _orange_with_highlight()
+    image, _, _spot = _orange_with_highlight()
     image = np.pad(image, ((0, 40), (30, 0), (0, 0)), mode="reflect")
     planes = to_planes(image)
     full = _max_diffuse_chromaticity(planes, 8, 1e-4, 2, subsample)

@@ -29,8 +29,12 @@ def brute_force_otsu_level(levels: np.ndarray) -> int:
 def test_otsu_split_equals_brute_force(seed):
     rng = np.random.default_rng(seed)
     n0, n1 = rng.integers(200, 2000, size=2)
-    values = np.concatenate([rng.normal(rng.uniform(-1, 0), rng.uniform(0.05, 0.3), n0),
-                             rng.normal(rng.uniform(0, 1), rng.uniform(0.05, 0.3), n1)])
+    values = np.concatenate(
+        [
+            rng.normal(rng.uniform(-1, 0), rng.uniform(0.05, 0.3), n0),
+            rng.normal(rng.uniform(0, 1), rng.uniform(0.05, 0.3), n1),
+        ]
+    )
     lo, hi = values.min(), values.max()
     levels = quantize_levels(values, lo, hi).ravel()
     t = brute_force_otsu_level(levels)

@@ -30,7 +30,7 @@ def _info(lat=0.0, herr=0.0):
 
 
 def test_footprint_corners_by_hand():
-    road, (v,) = _road([(10.0, 0.0, 0.0)])
+    _, (v,) = _road([(10.0, 0.0, 0.0)])
     v.heading = math.pi / 2  # pointing +y
     c = footprint_corners(v)
     np.testing.assert_allclose(c, [[11.0, 2.5], [9.0, 2.5], [9.0, -2.5], [11.0, -2.5]], atol=1e-12)
@@ -54,7 +54,7 @@ def test_offroad_when_a_corner_leaves_the_road():
 
 
 def test_time_to_collision_by_hand():
-    road, (ego, lead) = _road([(0.0, 0.0, 20.0), (30.0, 0.0, 10.0)])
+    road, (ego, _lead) = _road([(0.0, 0.0, 20.0), (30.0, 0.0, 10.0)])
     s = SafetyScore(dt=0.2, route_length_m=100.0)
     s.update(road, ego, _info())
     # centre gap 30 m minus two half-lengths (2.5 + 2.5) = 25 m, closing at 10 m/s

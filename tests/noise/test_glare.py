@@ -89,6 +89,6 @@ def test_fog_hides_the_sun(scene):
     for spec in ("glare", "glare+fog"):
         w = make_weather(spec, 0.9, params=base)
         w.reset(0, world=scene.world)
-        out, masks = w.apply(clean, scene.ctx())
+        _out, masks = w.apply(clean, scene.ctx())
         gains.append(masks["glare"].mean())
     assert gains[1] < 0.05 * gains[0]

@@ -32,7 +32,7 @@ def test_ego_rotation_and_rays_agree_with_the_camera():
 def test_mirror_map_points_above_the_horizon():
     cam = PinholeCamera()
     geom = view_geometry(cam)
-    mx, my = geom.mirror_map
+    _mx, my = geom.mirror_map
     rows, cols = np.nonzero(geom.ground)
     assert (my[rows, cols] < cam.horizon_row).all()
     # With a small pitch the mirror of a pixel lies about as far above the horizon as

@@ -11,8 +11,8 @@ from scipy import integrate
 from simroad.camera import ASPHALT
 from simroad.noise import RainModel, RainParams, linear_to_srgb, make_weather, srgb_to_linear
 from simroad.noise import _particles as pt
-from simroad.noise._particles import wind_in_ego
 from simroad.noise._geometry import view_geometry
+from simroad.noise._particles import wind_in_ego
 from simroad.noise.rain import (
     exposure_beta,
     marshall_palmer,
@@ -32,7 +32,9 @@ def test_raindrop_beta_at_thirty_hz_is_at_most_five_percent():
     assert exposure_beta(3.5e-3, v, 1 / 30) == pytest.approx(0.0354, rel=0.01)
 
 
-@pytest.mark.parametrize(("d_mm", "v_m_s"), [(0.5, 2.06), (1.0, 4.03), (2.0, 6.49), (3.0, 8.06), (4.0, 8.83), (5.0, 9.09)])
+@pytest.mark.parametrize(
+    ("d_mm", "v_m_s"), [(0.5, 2.06), (1.0, 4.03), (2.0, 6.49), (3.0, 8.06), (4.0, 8.83), (5.0, 9.09)]
+)
 def test_terminal_velocity_matches_gunn_and_kinzer(d_mm, v_m_s):
     assert terminal_velocity(d_mm * 5e-4) == pytest.approx(v_m_s, rel=0.03)
 
@@ -40,7 +42,7 @@ def test_terminal_velocity_matches_gunn_and_kinzer(d_mm, v_m_s):
 def test_marshall_palmer_extinction_against_a_numerical_integral():
     for rate in (1.0, 10.0, 100.0):
         # sigma = 2 * integral of pi a^2 N(D) dD (geometric optics), D in mm -> m^2.
-        num, _ = integrate.quad(lambda d: 2 * math.pi * (d / 2e3) ** 2 * marshall_palmer(d, rate), 0, 20)
+        num, _ = integrate.quad(lambda d, rate=rate: 2 * math.pi * (d / 2e3) ** 2 * marshall_palmer(d, rate), 0, 20)
         assert rain_extinction(rate) == pytest.approx(num, rel=1e-3)
     assert marshall_palmer(0.0, 5.0) == pytest.approx(8000.0)
     # Visibility 3.912/sigma: a few km in moderate rain, under a km in violent rain.
@@ -135,7 +137,13 @@ def test_streaks_fall_down_the_image_when_the_car_is_parked(scene):
     m.reset(0)
     m.apply(scene.frame.rgb, scene.ctx(ego_speed=0.0))
     u0, v0, u1, v1, _, _ = pt.streaks(
-        m.field, view_geometry(scene.camera), wind_ego=np.zeros(2), speed=0.0, yaw_rate=0.0, exposure_s=1 / 30, time_s=0.0
+        m.field,
+        view_geometry(scene.camera),
+        wind_ego=np.zeros(2),
+        speed=0.0,
+        yaw_rate=0.0,
+        exposure_s=1 / 30,
+        time_s=0.0,
     )
     assert np.median(v1 - v0) > 3 * np.median(np.abs(u1 - u0))  # start above, end below
 

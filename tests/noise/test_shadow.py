@@ -54,7 +54,9 @@ def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
 
 
 def test_shadows_stay_on_the_ground_while_the_car_moves(scene):
-    p = ShadowParams(sun_elevation_deg=30.0, occluders_per_100m=40.0, overpasses_per_km=5.0, vehicle_shadows=False, ego_shadow=False)
+    p = ShadowParams(
+        sun_elevation_deg=30.0, occluders_per_100m=40.0, overpasses_per_km=5.0, vehicle_shadows=False, ego_shadow=False
+    )
     model = ShadowModel(p)
     model.reset(11, world=scene.world)
     views = []
@@ -124,7 +126,11 @@ def test_vehicles_cast_shadows_that_move_with_them(scene):
         car = VehicleBox(x, 4.5, 0.0, 5.0, 2.0, (20, 20, 200))
         renderer, cam = scene.renderer()
         frame = renderer.render(scene.pose, [car])
-        out.append(w.apply(frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=[car]))[1]["shadow"])
+        out.append(
+            w.apply(frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=[car]))[1][
+                "shadow"
+            ]
+        )
     assert out[0].sum() > 20 and out[1].sum() > 20
     assert not np.array_equal(out[0], out[1])
 

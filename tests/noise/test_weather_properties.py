@@ -34,8 +34,8 @@ def test_same_seed_gives_identical_frames_and_masks(spec, scene):
 
 @pytest.mark.parametrize("spec", ["rain", "snow", "shadow"])
 def test_another_seed_gives_another_frame(spec, scene):
-    (a, _), = _run(spec, scene, seed=1, frames=1)
-    (b, _), = _run(spec, scene, seed=2, frames=1)
+    ((a, _),) = _run(spec, scene, seed=1, frames=1)
+    ((b, _),) = _run(spec, scene, seed=2, frames=1)
     assert not np.array_equal(a, b)
 
 
@@ -59,7 +59,7 @@ def test_inputs_are_never_mutated(spec, scene):
 @pytest.mark.parametrize("dtype", [np.uint8, np.float32, np.float64])
 def test_shape_and_dtype_are_kept(spec, dtype, scene):
     img = scene.frame.rgb if dtype == np.uint8 else (scene.frame.rgb / 255.0).astype(dtype)
-    (out, masks), = _run(spec, scene, image=img, frames=1)
+    ((out, masks),) = _run(spec, scene, image=img, frames=1)
     assert out.shape == img.shape and out.dtype == img.dtype
     if dtype != np.uint8:
         assert 0.0 <= out.min() and out.max() <= 1.0
@@ -70,7 +70,7 @@ def test_shape_and_dtype_are_kept(spec, dtype, scene):
 
 @pytest.mark.parametrize("spec", SINGLE)
 def test_mask_is_where_the_frame_changed_by_the_threshold(spec, scene):
-    (out, masks), = _run(spec, scene, frames=1)
+    ((out, masks),) = _run(spec, scene, frames=1)
     np.testing.assert_array_equal(masks[spec], change_mask(scene.frame.rgb, out))
     diff = np.abs(out.astype(int) - scene.frame.rgb.astype(int)).max(axis=2)
     assert masks[spec].any()
