@@ -31,17 +31,28 @@ import warnings
 import numpy as np
 from _harness import interleaved, one_core, table
 
-from simroad.detector import FILTERS, RoadDetector, apply_filters, train_default
-from simroad.detector.detector import _filtered_rgb
+from simroad.detector import RoadDetector, train_default
 from simroad.detector.features import _features_f
 from simroad.detector.morphology import _ego_component, _fill_holes
-from simroad.filters import remove_glare, remove_haze, remove_highlights, remove_rain_snow, remove_shadows
+from simroad.detector.pixels import filtered_rgb
+from simroad.filters import (
+    FILTER_REGISTRY,
+    FILTERS,
+    apply_filters,
+    remove_glare,
+    remove_haze,
+    remove_highlights,
+    remove_rain_snow,
+    remove_shadows,
+)
 from simroad.metrics import MaskScore
 
 TARGET_MS = 8.0
 _TABLE = "detector, 3 filters, lookup table"
 _LITERAL = "detector, 3 filters, per-pixel SVC.predict"
 NOISES = ("rain", "snow", "shadow", "glare")
+#: The improved rain/snow filter's particle step (after remove_haze), as the registry runs it.
+_ACHROMATIC = FILTER_REGISTRY["rain_snow"].steps("improved")[-1].options
 
 
 def _frames(seed: int, n: int):
@@ -76,7 +87,7 @@ def _literal(det: RoadDetector):
     """The paper's pipeline: filters, features of every pixel, SVC.predict, morphology."""
 
     def predict(image: np.ndarray) -> np.ndarray:
-        z = (_features_f(_filtered_rgb(image, FILTERS)) - det.feature_mean_) / det.feature_scale_
+        z = (_features_f(filtered_rgb(image, FILTERS)) - det.feature_mean_) / det.feature_scale_
         mask = det.svc_.predict(z).astype(bool).reshape(image.shape[:2])
         return _fill_holes(_ego_component(mask))
 
@@ -138,11 +149,11 @@ def _rain_variants(det, clean, noise: str) -> str:
     plain = copy.deepcopy(det).set_params(filters=())
     for name, tol in variants.items():
         if tol == "grey":
-            run = lambda x: remove_rain_snow(x, radius=3, tolerance=0.07, achromatic=True, protect=5)  # noqa: E731
+            run = lambda x: remove_rain_snow(x, **_ACHROMATIC).image  # noqa: E731
         elif tol == "haze":
             run = lambda x: apply_filters(x, ("rain_snow",), variant="improved")  # noqa: E731
         else:
-            run = (lambda x: x) if tol == "off" else (lambda x, tol=tol: remove_rain_snow(x, tolerance=tol))
+            run = (lambda x: x) if tol == "off" else (lambda x, tol=tol: remove_rain_snow(x, tolerance=tol).image)
         err_in, err_out, score = [], [], MaskScore()
         for (noisy, _, changed), (noisy_full, gt, _), (rgb, _, cam, _) in zip(particles, full, clean):
             err = np.abs(run(noisy).astype(np.int16) - rgb).mean(axis=-1)
@@ -188,8 +199,7 @@ def main(repeats: int = 20) -> dict[str, dict[str, np.ndarray]]:
     stages = interleaved({
         "remove_shadows": lambda: remove_shadows(image),
         "remove_rain_snow (paper + min)": lambda: remove_rain_snow(image),
-        "remove_rain_snow, achromatic, protect 5 (improved)": lambda: remove_rain_snow(
-            image, radius=3, tolerance=0.07, achromatic=True, protect=5),
+        "remove_rain_snow, achromatic, protect 5 (improved)": lambda: remove_rain_snow(image, **_ACHROMATIC),
         "remove_haze (improved rain/snow, first step), clean frame": lambda: remove_haze(image),
         "remove_haze (improved rain/snow, first step), snow frame": lambda: remove_haze(snow),
         "remove_highlights (paper)": lambda: remove_highlights(image),

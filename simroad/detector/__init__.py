@@ -2,17 +2,12 @@
 
 from __future__ import annotations
 
-from simroad.detector.detector import (
-    FILTERS,
-    MIN_IMAGE_SIZE,
-    RoadDetector,
-    apply_filters,
-    default_model_path,
-    train_default,
-)
+from simroad.detector.detector import MIN_IMAGE_SIZE, RoadDetector, default_model_path
 from simroad.detector.features import hsi, pixel_features
 from simroad.detector.morphology import fill_holes, keep_ego_component, postprocess
 from simroad.detector.svm import KernelExpansion
+from simroad.detector.training import train_default
+from simroad.filters import FILTERS, apply_filters  # re-exported: filters are run by name from simroad.filters
 
 __all__ = [
     "FILTERS",

@@ -29,20 +29,19 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad._validation import check_choice, check_in_range, check_int_in_range
 from simroad.control.drivers import DRIVER_NAMES, SCENARIO_CONTROL, make_driver
 from simroad.envs import RoadCamEnv
+from simroad.filters import FILTER_NAMES, format_filters, parse_filters  # re-exported here for old imports
 from simroad.metrics.safety import SafetyScore
 
 __all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "parse_filters", "run_episode"]
-
-FILTER_NAMES = ("shadow", "rain_snow", "light")
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "seed", "steps",
@@ -52,35 +51,6 @@ RECORD_KEYS = (
     "route_completion", "min_ttc_s", "driving_score",
     "detect_ms_median", "step_ms_median", "wall_s",
 )  # fmt: skip
-
-
-def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:
-    """``"none"`` -> (), ``"all"`` -> every filter, ``"shadow+light"`` -> that set.
-
-    Returns the filters in canonical order; unknown names are refused with the
-    valid ones listed.
-    """
-    if isinstance(spec, str):
-        text = spec.strip()
-        if text in ("", "none"):
-            return ()
-        if text == "all":
-            return FILTER_NAMES
-        names = [n.strip() for n in text.split("+")]
-    else:
-        names = list(spec)
-    out = []
-    for n in names:
-        check_choice("filters", n, FILTER_NAMES + ("none", "all") if len(names) == 1 else FILTER_NAMES)
-        if n in out:
-            raise SimroadError(f"filters: {n!r} is listed twice in {spec!r}.")
-        out.append(n)
-    return tuple(f for f in FILTER_NAMES if f in out)
-
-
-def format_filters(filters: Sequence[str]) -> str:
-    """The canonical text of a filter set: ``none`` or names joined by ``+``."""
-    return "+".join(filters) if filters else "none"
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterable, Sequence
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, collect_frames
+from simroad.filters import FILTERS, check_filters
 from simroad.metrics.mask import MaskScore
 
 __all__ = ["FILTER_NOISE", "filter_effect", "filter_effect_table", "format_filter_effect"]
@@ -83,10 +84,10 @@ def filter_effect(
         One of ``"shadow"``, ``"rain"``, ``"snow"``, ``"glare"`` (or any spec
         :func:`~simroad.noise.parse_noise` accepts, e.g. ``"rain+glare"``).
     filters : sequence of str
-        Subset of :data:`simroad.detector.FILTERS` for the "with" run.
+        Subset of :data:`simroad.filters.FILTERS` for the "with" run.
     seeds : iterable of int
         Worlds; one episode per scenario (all three) and seed. The shipped model
-        trains on seeds 0-7, so keep these >= 100.
+        was trained on worlds 0-15 (``simroad train-detector``), so keep these >= 100.
     frames : int
         Frames kept per episode.
     severity : float
@@ -105,10 +106,8 @@ def filter_effect(
         (each ``{"fnr", "fpr"}``, pooled over the ground pixels, fractions) and
         ``better`` -- True when FNR + FPR is lower with the filters.
     """
-    from simroad.detector.detector import _check_filters
-
     seeds, frames, severity, every = _check_protocol(seeds, frames, severity, every)
-    names = _check_filters(filters)
+    names = check_filters(filters)
     if not names:
         raise SimroadError("filters: expected at least one filter to compare against none, got none.")
     factory = detector_factory or _default_factory
@@ -139,8 +138,6 @@ def filter_effect_table(
     ``glare`` (for quick checks); the other parameters are those of
     :func:`filter_effect`.
     """
-    from simroad.detector import FILTERS
-
     for n in noises:
         check_choice("noises", n, _NOISES)
     cache = {} if cache is None else cache

@@ -10,6 +10,8 @@ image costs more than a whole box filter).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import cv2
 import numpy as np
 
@@ -17,11 +19,13 @@ from simroad._validation import check_image
 
 __all__ = [
     "FILTER_DTYPES",
+    "FilterResult",
     "channel_max",
     "channel_min",
     "channel_sum",
     "check_filter_image",
     "clip_planes",
+    "crop_box",
     "from_planes",
     "planes_to_uint8",
     "to_planes",
@@ -31,6 +35,25 @@ __all__ = [
 FILTER_DTYPES = ("uint8", "float32", "float64")
 
 Planes = list  # three float32 (H, W) arrays: R, G, B
+
+
+class FilterResult(NamedTuple):
+    """What every public filter (``remove_*``) returns: the filtered image and its mask.
+
+    A named tuple, so ``image, mask = remove_shadows(frame)`` unpacks it.
+
+    Attributes
+    ----------
+    image : ndarray, (H, W, 3), the input's dtype (uint8, or float32/float64 in [0, 1])
+        The filtered image, a new array.
+    mask : ndarray, bool, (H, W)
+        The pixels the filter acted on; each filter's docstring says exactly which
+        (e.g. the shadow regions it relit, the highlights it found, the pixels the
+        rain/snow filter changed). All False when the filter left the image alone.
+    """
+
+    image: np.ndarray
+    mask: np.ndarray
 
 
 def check_filter_image(name: str, image: object) -> np.ndarray:
@@ -89,3 +112,14 @@ def channel_sum(planes: Planes) -> np.ndarray:
     out = planes[0] + planes[1]
     out += planes[2]
     return out
+
+
+def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
+    """Bounding box of a non-empty bool (H, W) ``mask`` grown by ``margin`` pixels, clipped to the image."""
+    rows = np.flatnonzero(mask.any(axis=1))
+    cols = np.flatnonzero(mask.any(axis=0))
+    h, w = mask.shape
+    return (
+        slice(max(0, rows[0] - margin), min(h, rows[-1] + 1 + margin)),
+        slice(max(0, cols[0] - margin), min(w, cols[-1] + 1 + margin)),
+    )

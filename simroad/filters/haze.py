@@ -36,7 +36,7 @@ flakes, was most of the detector's FNR, and this step turns the rain/snow filter
 loss into a gain at every severity. In rain it costs some FPR -- the wet road's
 reflection of the sky also brightens the far rows and is removed as if it were haze.
 :func:`remove_haze` is the first step of the rain/snow filter's improved variant
-(:func:`simroad.detector.apply_filters`).
+(:func:`simroad.filters.apply_filters`).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
-from simroad.filters._common import check_filter_image, from_planes, to_planes
+from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
 
 __all__ = ["remove_haze"]
 
@@ -55,14 +55,14 @@ _MAX_SKY_SATURATION = 0.15
 
 
 def _transmission(
-    planes,
+    planes: Planes,
     percentile: float,
     t_min: float,
     tolerance: float,
     gamma: float,
     max_sky_saturation: float = _MAX_SKY_SATURATION,
     scale: int = _SCALE,
-):
+) -> tuple[np.ndarray, np.ndarray] | None:
     """Per-row transmission ``t`` (H,) float32 and airlight ``A`` (3,) in linear radiance, or None."""
     h, w = planes[0].shape
     sh, sw = h, max(1, w // scale)  # every row kept: t changes fast near the horizon
@@ -87,16 +87,20 @@ def _transmission(
     return t_small.astype(np.float32), airlight
 
 
-def _haze_planes(planes, percentile: float = 2.0, t_min: float = 0.5, tolerance: float = 0.01, gamma: float = 2.2):
-    """Core of :func:`remove_haze` on float32 planes in [0, 1]; new planes."""
+def _haze_planes(
+    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float
+) -> tuple[Planes, np.ndarray]:
+    """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows)."""
     out = [p.copy() for p in planes]
+    mask = np.zeros(planes[0].shape, bool)
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
-        return out
+        return out, mask
     t, airlight = found
     # t never grows upwards (the floor is made non-decreasing upwards), so the veiled
     # rows are the top ``n`` rows of the frame.
     n = int(np.count_nonzero(t < 1.0))
+    mask[:n] = True
     gain = 1.0 / t[:n, None]
     lift = 1.0 - gain  # J = I / t - A (1 - t) / t = I gain + A lift
     for o, p, a in zip(out, planes, airlight):
@@ -105,7 +109,7 @@ def _haze_planes(planes, percentile: float = 2.0, t_min: float = 0.5, tolerance:
         lin += a * lift
         np.clip(lin, 0.0, 1.0, out=lin)
         cv2.pow(lin, 1.0 / float(gamma), dst=o[:n])
-    return out
+    return out, mask
 
 
 def remove_haze(
@@ -115,7 +119,7 @@ def remove_haze(
     t_min: float = 0.5,
     tolerance: float = 0.01,
     gamma: float = 2.2,
-) -> np.ndarray:
+) -> FilterResult:
     """Remove the veil of rain or snow haze, row by row (see the module notes).
 
     Parameters
@@ -134,12 +138,15 @@ def remove_haze(
 
     Returns
     -------
-    ndarray, same shape and dtype as ``image``
-        The haze-free image; rows without haze are returned unchanged.
+    FilterResult
+        ``image``: the haze-free image, same shape and dtype as the input; rows
+        without haze are returned unchanged. ``mask``: bool (H, W), True on the rows
+        that were corrected (``t < 1``; always a block of top rows).
     """
     image = check_filter_image("image", image)
     percentile = check_in_range("percentile", percentile, 0.0, 50.0)
     t_min = check_in_range("t_min", t_min, 0.0, 1.0, low_inclusive=False)
     tolerance = check_in_range("tolerance", tolerance, 0.0, 1.0)
     gamma = check_in_range("gamma", gamma, 1.0, 3.0)
-    return from_planes(_haze_planes(to_planes(image), percentile, t_min, tolerance, gamma), image.dtype)
+    out, mask = _haze_planes(to_planes(image), percentile=percentile, t_min=t_min, tolerance=tolerance, gamma=gamma)
+    return FilterResult(from_planes(out, image.dtype), mask)

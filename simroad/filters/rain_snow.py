@@ -66,6 +66,8 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
 from simroad.filters._common import (
+    FilterResult,
+    Planes,
     channel_max,
     channel_min,
     channel_sum,
@@ -79,15 +81,17 @@ __all__ = ["remove_rain_snow"]
 
 
 def _rain_snow_planes(
-    planes: list[np.ndarray],
+    planes: Planes,
+    *,
     radius: int,
     eps: float,
     tolerance: float | None,
-    subsample: int = 1,
-    achromatic: bool = False,
-    protect: int = 0,
-) -> list[np.ndarray]:
-    """Core of :func:`remove_rain_snow` on float32 planes in [0, 1]; new planes, not clipped."""
+    subsample: int,
+    achromatic: bool,
+    protect: int,
+) -> tuple[Planes, np.ndarray]:
+    """Core of :func:`remove_rain_snow` on float32 planes in [0, 1]: (new planes, not
+    clipped; bool (H, W) mask of the pixels it changed)."""
     guide_f = channel_max(planes) - channel_min(planes)  # Xu et al.: I_f = max_c I - min_c I
     grey = channel_sum(planes)
     grey *= np.float32(1.0 / 3.0)  # eq. 10
@@ -105,15 +109,17 @@ def _rain_snow_planes(
             np.maximum(q_g, cv2.morphologyEx(grey, cv2.MORPH_OPEN, np.ones((protect, protect), np.uint8)), out=q_g)
         q_g += np.float32(tolerance)
         excess = np.maximum(grey - q_g, 0.0)
-        return [p - excess for p in planes]
+        return [p - excess for p in planes], excess > 0.0
     q = _guided_planes(guide_g, planes, radius, eps, subsample=subsample)
     if tolerance is None:
-        return q
+        return q, (q[0] != planes[0]) | (q[1] != planes[1]) | (q[2] != planes[2])
     out = []
+    changed = np.zeros(planes[0].shape, bool)
     for qc, ic in zip(q, planes):
         qc += np.float32(tolerance)
+        changed |= qc < ic
         out.append(np.minimum(ic, qc, out=qc))  # rain and snow only ever brighten (eq. 19)
-    return out
+    return out, changed
 
 
 def remove_rain_snow(
@@ -125,7 +131,7 @@ def remove_rain_snow(
     subsample: int = 2,
     achromatic: bool = False,
     protect: int = 0,
-) -> np.ndarray:
+) -> FilterResult:
     """Remove rain streaks and snowflakes (paper eqs. 21-22, after Xu et al. 2012).
 
     Steps: ``I_f = max_c I - min_c I``; ``J = GF(I_f, I)`` (eq. 21); ``J_g`` the
@@ -165,8 +171,10 @@ def remove_rain_snow(
 
     Returns
     -------
-    ndarray, same shape and dtype as ``image``
-        The rain/snow-free image, clipped to the valid range.
+    FilterResult
+        ``image``: the rain/snow-free image, same shape and dtype as the input,
+        clipped to the valid range. ``mask``: bool (H, W), the pixels whose value
+        the filter changed (before rounding to the input's dtype).
     """
     image = check_filter_image("image", image)
     radius = check_int_in_range("radius", radius, 1, 64)
@@ -178,5 +186,8 @@ def remove_rain_snow(
     protect = check_int_in_range("protect", protect, 0, 31)
     if achromatic and tolerance is None:
         raise SimroadError("tolerance: the achromatic variant needs a tolerance (e.g. 0.04), got None.")
-    out = _rain_snow_planes(to_planes(image), radius, eps, tolerance, subsample, achromatic, protect)
-    return from_planes(out, image.dtype)
+    out, mask = _rain_snow_planes(
+        to_planes(image), radius=radius, eps=eps, tolerance=tolerance, subsample=subsample,
+        achromatic=achromatic, protect=protect,
+    )  # fmt: skip
+    return FilterResult(from_planes(out, image.dtype), mask)

@@ -35,7 +35,15 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range, check_int_in_range
-from simroad.filters._common import channel_min, channel_sum, check_filter_image, from_planes, to_planes
+from simroad.filters._common import (
+    FilterResult,
+    Planes,
+    channel_min,
+    channel_sum,
+    check_filter_image,
+    from_planes,
+    to_planes,
+)
 from simroad.filters._threshold import otsu_threshold
 
 __all__ = ["ndi", "remove_shadows"]
@@ -152,7 +160,9 @@ def _shadow_regions(planes, min_ndi, min_area, ring, max_darkness):
     return labels, ok, gain, offset
 
 
-def _shadows_planes(planes, min_ndi, min_area, ring, max_darkness):
+def _shadows_planes(
+    planes: Planes, *, min_ndi: float, min_area: int, ring: int, max_darkness: float
+) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_shadows` on float32 planes; returns (new planes, corrected mask)."""
     found = _shadow_regions(planes, min_ndi, min_area, ring, max_darkness)
     if found is None:
@@ -177,7 +187,7 @@ def remove_shadows(
     min_area: int = 16,
     ring: int = 5,
     max_darkness: float = 0.8,
-) -> tuple[np.ndarray, np.ndarray]:
+) -> FilterResult:
     """Detect cast shadows by NDI + Otsu and relight them from their surroundings.
 
     Parameters
@@ -200,18 +210,19 @@ def remove_shadows(
 
     Returns
     -------
-    image : ndarray, same shape and dtype as the input
-        Shadow regions corrected per channel by
-        ``I' = mu_buff + (sigma_buff / sigma_k) (I - mu_k)`` (eq. 18, standard form),
-        the gain ``sigma_buff / sigma_k`` capped at the illumination ratio
-        ``mu_buff / mu_k`` and at 8 (1 for flat regions), clipped.
-    shadow_mask : ndarray, bool, (H, W)
-        Pixels of the regions that were corrected.
+    FilterResult
+        ``image``: same shape and dtype as the input, shadow regions corrected per
+        channel by ``I' = mu_buff + (sigma_buff / sigma_k) (I - mu_k)`` (eq. 18,
+        standard form), the gain ``sigma_buff / sigma_k`` capped at the illumination
+        ratio ``mu_buff / mu_k`` and at 8 (1 for flat regions), clipped.
+        ``mask``: bool (H, W), the pixels of the regions that were corrected.
     """
     image = check_filter_image("image", image)
     min_ndi = check_in_range("min_ndi", min_ndi, -1.0, 1.0)
     min_area = check_int_in_range("min_area", min_area, 1, 1 << 30)
     ring = check_int_in_range("ring", ring, 1, 64)
     max_darkness = check_in_range("max_darkness", max_darkness, 0.0, 1.0, low_inclusive=False)
-    out, mask = _shadows_planes(to_planes(image), min_ndi, min_area, ring, max_darkness)
-    return from_planes(out, image.dtype), mask
+    out, mask = _shadows_planes(
+        to_planes(image), min_ndi=min_ndi, min_area=min_area, ring=ring, max_darkness=max_darkness
+    )
+    return FilterResult(from_planes(out, image.dtype), mask)

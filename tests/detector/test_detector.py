@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import inspect
 import json
 
 import numpy as np
@@ -67,7 +68,7 @@ def test_save_load_round_trip_without_pickle(small_detector, heldout_frames, tmp
         assert all(data[k].dtype != object for k in data.files)
     assert meta["format"] == "simroad.RoadDetector" and meta["params"]["lut_bits"] == 6
     loaded = RoadDetector.load(path)
-    assert loaded.svc_ is None and loaded.get_params()["filters"] == []
+    assert loaded.svc_ is None and loaded.get_params()["filters"] == ()  # a tuple, as given (issue 12)
     img = heldout_frames[0][2]
     np.testing.assert_array_equal(loaded.predict(img), small_detector.predict(img))
     np.testing.assert_array_equal(loaded.predict(img, exact=True), small_detector.predict(img, exact=True))
@@ -177,3 +178,26 @@ def test_pretrained_model_is_small_and_meets_clean_frame_targets(heldout_frames)
     pooled = score.pooled()
     assert pooled["fnr"] <= 0.03 and pooled["fpr"] <= 0.03, pooled
     assert RoadDetector.pretrained(filters=["light", "shadow"]).filters == ("light", "shadow")
+
+
+def test_constructor_defaults_are_the_documented_ones():
+    from simroad.detector.detector import DEFAULT_MAX_SAMPLES
+
+    sig = inspect.signature(RoadDetector)
+    assert sig.parameters["max_samples"].default == DEFAULT_MAX_SAMPLES == 16000
+    assert RoadDetector().max_samples == DEFAULT_MAX_SAMPLES
+    assert "DEFAULT_MAX_SAMPLES" in RoadDetector.__doc__
+
+
+def test_filters_stay_a_tuple_after_save_and_load(small_detector, tmp_path):
+    det = copy.deepcopy(small_detector).set_params(filters=("light", "shadow"))
+    det.save(tmp_path / "m.npz")
+    loaded = RoadDetector.load(tmp_path / "m.npz")
+    assert loaded.filters == ("light", "shadow") and isinstance(loaded.filters, tuple)
+    assert loaded.get_params() == det.get_params()
+
+
+def test_the_shipped_model_loads_with_its_stored_parameters():
+    det = RoadDetector.load(default_model_path())
+    assert det.filters == () and isinstance(det.filters, tuple)
+    assert det.max_samples == 16000 and det.nonroad_weight == 2.0

@@ -8,7 +8,7 @@ import pytest
 from simroad import SimroadError
 from simroad.filters import dark_channel, remove_glare, remove_highlights, specular_to_diffuse
 from simroad.filters._common import to_planes
-from simroad.filters.light import _diffuse_planes, _max_diffuse_chromaticity
+from simroad.filters.highlights import _diffuse_planes, _max_diffuse_chromaticity
 
 
 def dark_channel_loop(image: np.ndarray, patch: int) -> np.ndarray:

@@ -3,28 +3,42 @@ robust to constant and tiny images, clear errors on bad input."""
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 import pytest
 
 from simroad import SimroadError
-from simroad.detector import apply_filters
-from simroad.filters import remove_highlights, remove_rain_snow, remove_shadows
+from simroad.filters import (
+    FilterResult,
+    apply_filters,
+    remove_glare,
+    remove_haze,
+    remove_highlights,
+    remove_rain_snow,
+    remove_shadows,
+)
+
+#: Every public filter of the family (``remove_*``): one return convention.
+PUBLIC = {
+    "shadow": remove_shadows,
+    "rain_snow": remove_rain_snow,
+    "light": remove_highlights,
+    "glare": remove_glare,
+    "haze": remove_haze,
+}
 
 
 def _image_only(fn):
     def run(image):
-        out = fn(image)
-        return out[0] if isinstance(out, tuple) else out
+        return fn(image).image
 
     return run
 
 
-FILTERS = {
-    "shadow": _image_only(remove_shadows),
-    "rain_snow": _image_only(remove_rain_snow),
-    "light": _image_only(remove_highlights),
-    "pipeline": lambda image: apply_filters(image, ("shadow", "rain_snow", "light")),
-}
+FILTERS = {name: _image_only(fn) for name, fn in PUBLIC.items()}
+FILTERS["pipeline"] = lambda image: apply_filters(image, ("shadow", "rain_snow", "light"))
+FILTERS["pipeline, paper"] = lambda image: apply_filters(image, ("shadow", "rain_snow", "light"), variant="paper")
 DTYPES = ("uint8", "float32", "float64")
 
 
@@ -105,3 +119,32 @@ def test_bad_input_is_a_clear_error(name, bad, match):
     with pytest.raises(SimroadError, match=match) as info:
         FILTERS[name](bad)
     assert str(info.value).startswith("image:")
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("name", PUBLIC)
+def test_every_public_filter_returns_a_filter_result(name, dtype):
+    image = _scene(dtype)
+    result = PUBLIC[name](image)
+    assert isinstance(result, FilterResult)
+    out, mask = result  # unpacks like (image, mask)
+    assert out is result.image and mask is result.mask
+    assert mask.dtype == bool and mask.shape == image.shape[:2]
+
+
+@pytest.mark.parametrize("name", PUBLIC)
+def test_public_filter_options_are_keyword_only(name):
+    params = list(inspect.signature(PUBLIC[name]).parameters.values())
+    assert params[0].name == "image"
+    assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params[1:])
+    with pytest.raises(TypeError):
+        PUBLIC[name](_scene("uint8"), 3)
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"tolerance": None}, {"achromatic": True, "tolerance": 0.02}])
+def test_the_rain_snow_mask_is_exactly_the_changed_pixels(kwargs):
+    image = _scene("float32")
+    out, mask = remove_rain_snow(image, **kwargs)
+    changed = (out != image).any(axis=-1)
+    assert changed.any()
+    np.testing.assert_array_equal(mask, changed)

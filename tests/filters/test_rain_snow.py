@@ -28,7 +28,7 @@ def test_snow_is_reduced_and_the_rest_kept():
     rng = np.random.default_rng(0)
     clean = _road(rng)
     snowy, flakes = _snow(clean, rng)
-    out = remove_rain_snow(snowy)
+    out = remove_rain_snow(snowy).image
     err_before = np.abs(snowy - clean)[flakes].mean()
     err_after = np.abs(out - clean)[flakes].mean()
     assert err_after < 0.5 * err_before
@@ -37,10 +37,10 @@ def test_snow_is_reduced_and_the_rest_kept():
 
 def test_output_only_darkens_and_keeps_most_of_a_clean_grey_road():
     clean = _road(np.random.default_rng(1))
-    out = remove_rain_snow(clean)
+    out = remove_rain_snow(clean).image
     assert (out <= clean).all()  # rain and snow only ever brighten, so the filter only darkens
     unchanged = (out == clean).all(axis=-1).mean()
-    plain = remove_rain_snow(clean, tolerance=None)  # Xu et al. alone: a box blur on grey
+    plain = remove_rain_snow(clean, tolerance=None).image  # Xu et al. alone: a box blur on grey
     assert unchanged > 0.7  # texture 1 sigma above the local mean is kept (tolerance 0.02)
     assert (plain == clean).all(axis=-1).mean() < 0.1
     assert np.abs(out - clean).mean() < 0.25 * np.abs(plain - clean).mean()
@@ -61,7 +61,7 @@ def _snow_cover_with_flakes(seed=0):
 
 def test_achromatic_variant_keeps_the_chroma_of_a_surface_and_removes_flakes():
     img, clean, (ys, xs) = _snow_cover_with_flakes()
-    out = remove_rain_snow(img, achromatic=True, tolerance=0.04, radius=3)
+    out = remove_rain_snow(img, achromatic=True, tolerance=0.04, radius=3).image
     # every output pixel differs from its input by the same amount in all channels
     d = img - out
     np.testing.assert_allclose(d[..., 0], d[..., 2], atol=1e-6)
@@ -79,8 +79,8 @@ def test_protect_keeps_a_lane_marking_that_the_plain_variant_dims():
     img = np.full((40, 60, 3), 0.3, np.float32)
     img[:, 28:36] = 0.95  # an 8-px stripe: paint, not a particle
     img[5, 5] = 1.0  # a 1-px flake
-    plain = remove_rain_snow(img, achromatic=True, tolerance=0.02, radius=3)
-    kept = remove_rain_snow(img, achromatic=True, tolerance=0.02, radius=3, protect=5)
+    plain = remove_rain_snow(img, achromatic=True, tolerance=0.02, radius=3).image
+    kept = remove_rain_snow(img, achromatic=True, tolerance=0.02, radius=3, protect=5).image
     assert plain[20, 28:36].mean() < 0.9  # the stripe's edges are dimmed without protection
     np.testing.assert_allclose(kept[:, 28:36], img[:, 28:36], atol=1e-6)
     assert kept[5, 5, 0] < 0.8  # the flake still goes

@@ -1,0 +1,94 @@
+"""The detector's pixels: validated training sets, balanced pixel sampling, and the filtered colours the SVM sees."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from simroad._validation import SimroadError, check_image, check_mask
+from simroad.filters._common import planes_to_uint8, to_planes
+from simroad.filters.pipeline import filter_planes
+
+__all__ = [
+    "IMAGE_DTYPES",
+    "MIN_IMAGE_SIZE",
+    "check_training_set",
+    "filtered_rgb",
+    "filtered_uint8_planes",
+    "sample_pixels",
+]
+
+#: Smallest image side the detector accepts, in pixels.
+MIN_IMAGE_SIZE = 8
+#: Image dtypes the detector accepts (uint8, or float in [0, 1]).
+IMAGE_DTYPES = ("uint8", "float32", "float64")
+
+
+def check_training_set(images: object, masks: object) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Validate training images (sequence or (N, H, W, 3)) and their bool road masks, one per image."""
+    if isinstance(images, np.ndarray) and images.ndim == 3:
+        raise SimroadError(
+            f"images: expected a sequence of (H, W, 3) images or an (N, H, W, 3) array, got "
+            f"one array of shape {images.shape}. Wrap a single image in a list: [image]."
+        )
+    images, masks = list(images), list(masks)  # type: ignore[call-overload]
+    if not images:
+        raise SimroadError("images: expected at least one training image, got none.")
+    if len(images) != len(masks):
+        raise SimroadError(f"masks: expected one mask per image ({len(images)} images), got {len(masks)} masks.")
+    imgs, msks = [], []
+    for k, (img, msk) in enumerate(zip(images, masks)):
+        img = check_image(f"images[{k}]", img, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
+        imgs.append(img)
+        msks.append(check_mask(f"masks[{k}]", msk, shape=img.shape[:2]))
+    return imgs, msks
+
+
+def sample_pixels(
+    images: list[np.ndarray],
+    masks: list[np.ndarray],
+    filters: tuple[str, ...],
+    n_max: int,
+    rng: np.random.Generator,
+    variant: str = "improved",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Balanced random pixels: up to ``n_max / (2 N)`` road and non-road pixels per image.
+
+    Returns the filtered colours (M, 3) float64 in [0, 1] and their labels (M,) int
+    (1 = road).
+    """
+    per = max(1, -(-n_max // (2 * len(images))))
+    xs, ys = [], []
+    for img, msk in zip(images, masks):
+        rgb = filtered_rgb(img, filters, variant)
+        flat = msk.ravel()
+        for label in (False, True):
+            idx = np.flatnonzero(flat == label)
+            if len(idx) > per:
+                idx = rng.choice(idx, per, replace=False)
+            xs.append(rgb[idx])
+            ys.append(np.full(len(idx), int(label)))
+    x, y = np.concatenate(xs), np.concatenate(ys)
+    if y.min() == y.max():
+        kind = "road" if y[0] else "non-road"
+        raise SimroadError(
+            f"masks: every training pixel is {kind}; the SVM needs both road and "
+            "non-road pixels. Add images whose masks contain both."
+        )
+    return x, y
+
+
+def filtered_rgb(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> np.ndarray:
+    """Filtered colours of every pixel as (H * W, 3) float64 rows in [0, 1]."""
+    if filters:
+        planes = filter_planes(to_planes(image), filters, variant)
+        return np.stack([p.ravel() for p in planes], axis=1).astype(np.float64)
+    return image.reshape(-1, 3) / (255.0 if image.dtype == np.uint8 else 1.0)
+
+
+def filtered_uint8_planes(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> list[np.ndarray]:
+    """Filtered image as three uint8 (H, W) planes, the lookup table's input."""
+    if filters:
+        return planes_to_uint8(filter_planes(to_planes(image), filters, variant))
+    if image.dtype != np.uint8:
+        return planes_to_uint8([np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)])
+    return [image[..., c] for c in range(3)]
