@@ -79,7 +79,7 @@ def _resolve_gamma(gamma: object, x: np.ndarray) -> float:
 
 def default_model_path() -> Path:
     """Path of the model shipped with simroad, ``simroad/data/road_detector.npz``."""
-    return Path(str(importlib.resources.files("simroad").joinpath("data", "road_detector.npz")))
+    return Path(str(importlib.resources.files("simroad") / "data" / "road_detector.npz"))
 
 
 class RoadDetector(BaseEstimator):

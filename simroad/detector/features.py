@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from simroad._colour import hsi_intensity, hsi_saturation
 from simroad._validation import check_image
 
 __all__ = ["N_FEATURES", "hsi", "pixel_features"]
@@ -41,9 +42,8 @@ _TINY = 1e-12
 def _hsi_f(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """HSI of float planes in [0, 1]; returns (H degrees, S, I) in float64."""
     total = r + g + b
-    inten = total / 3.0  # eq. 10
-    mn = np.minimum(np.minimum(r, g), b)
-    sat = np.where(total > _TINY, 1.0 - 3.0 * mn / np.maximum(total, _TINY), 0.0)  # eq. 11
+    inten = hsi_intensity(total)  # eq. 10
+    sat = hsi_saturation(total, np.minimum(np.minimum(r, g), b), tiny=_TINY)  # eq. 11
     num = 0.5 * ((r - g) + (r - b))
     den = np.sqrt((r - g) ** 2 + (r - b) * (g - b))
     grey = den <= 1e-9

@@ -64,18 +64,18 @@ def write_model(
     }
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
+    arrays: dict[str, Any] = {
+        "support_vectors": svm.support_vectors,
+        "dual_coef": svm.dual_coef,
+        "intercept": np.float64(svm.intercept),
+        "gamma": np.float64(svm.gamma),
+        "feature_mean": feature_mean,
+        "feature_scale": feature_scale,
+        "meta": np.array(json.dumps(meta)),
+        **lut.to_arrays(),
+    }
     with open(tmp, "wb") as fh:
-        np.savez_compressed(
-            fh,
-            support_vectors=svm.support_vectors,
-            dual_coef=svm.dual_coef,
-            intercept=np.float64(svm.intercept),
-            gamma=np.float64(svm.gamma),
-            feature_mean=feature_mean,
-            feature_scale=feature_scale,
-            meta=np.array(json.dumps(meta)),
-            **lut.to_arrays(),
-        )
+        np.savez_compressed(fh, **arrays)
     os.replace(tmp, path)
 
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_mask
@@ -23,14 +25,16 @@ MIN_IMAGE_SIZE = 8
 IMAGE_DTYPES = ("uint8", "float32", "float64")
 
 
-def check_training_set(images: object, masks: object) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def check_training_set(
+    images: Sequence[np.ndarray] | np.ndarray, masks: Sequence[np.ndarray] | np.ndarray
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Validate training images (sequence or (N, H, W, 3)) and their bool road masks, one per image."""
     if isinstance(images, np.ndarray) and images.ndim == 3:
         raise SimroadError(
             f"images: expected a sequence of (H, W, 3) images or an (N, H, W, 3) array, got "
             f"one array of shape {images.shape}. Wrap a single image in a list: [image]."
         )
-    images, masks = list(images), list(masks)  # type: ignore[call-overload]
+    images, masks = list(images), list(masks)
     if not images:
         raise SimroadError("images: expected at least one training image, got none.")
     if len(images) != len(masks):

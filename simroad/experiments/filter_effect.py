@@ -55,14 +55,16 @@ def _score(detector, frames: FrameSet) -> dict[str, float]:
     return {"fnr": pooled["fnr"], "fpr": pooled["fpr"]}
 
 
-def _check_protocol(seeds: Iterable[int], frames: int, severity: float, every: int):
-    seeds = tuple(int(s) for s in seeds)
-    if not seeds:
+def _check_protocol(
+    seeds: Iterable[int], frames: int, severity: float, every: int
+) -> tuple[tuple[int, ...], int, float, int]:
+    worlds = tuple(int(s) for s in seeds)
+    if not worlds:
         raise SimroadError("seeds: expected at least one seed (held-out worlds are >= 100), got none.")
     frames = check_int_in_range("frames", frames, 1, 10_000)
     severity = check_in_range("severity", severity, 0.0, 1.0)
     every = check_int_in_range("every", every, 1, 1000)
-    return seeds, frames, severity, every
+    return worlds, frames, severity, every
 
 
 def filter_effect(
@@ -106,12 +108,12 @@ def filter_effect(
         (each ``{"fnr", "fpr"}``, pooled over the ground pixels, fractions) and
         ``better`` -- True when FNR + FPR is lower with the filters.
     """
-    seeds, frames, severity, every = _check_protocol(seeds, frames, severity, every)
+    worlds, frames, severity, every = _check_protocol(seeds, frames, severity, every)
     names = check_filters(filters)
     if not names:
         raise SimroadError("filters: expected at least one filter to compare against none, got none.")
     factory = detector_factory or _default_factory
-    frame_set = _render(noise, seeds, frames, severity, every, {} if cache is None else cache)
+    frame_set = _render(noise, worlds, frames, severity, every, {} if cache is None else cache)
     without = _score(factory(()), frame_set)
     with_ = _score(factory(names), frame_set)
     return {
@@ -141,11 +143,14 @@ def filter_effect_table(
     for n in noises:
         check_choice("noises", n, _NOISES)
     cache = {} if cache is None else cache
-    cases = [(n, (f,)) for f, ns in FILTER_NOISE.items() for n in ns if n in noises]
-    cases += [(n, tuple(FILTERS)) for n in _NOISES if n in noises]
-    kw = {"seeds": tuple(seeds), "frames": frames, "severity": severity, "every": every,
-          "detector_factory": detector_factory, "cache": cache}  # fmt: skip
-    return [filter_effect(n, f, **kw) for n, f in cases]
+    cases: list[tuple[str, tuple[str, ...]]] = [(n, (f,)) for f, ns in FILTER_NOISE.items() for n in ns if n in noises]
+    cases += [(n, FILTERS) for n in _NOISES if n in noises]
+    worlds = tuple(seeds)
+    return [
+        filter_effect(n, f, seeds=worlds, frames=frames, severity=severity, every=every,
+                      detector_factory=detector_factory, cache=cache)
+        for n, f in cases
+    ]  # fmt: skip
 
 
 def format_filter_effect(rows: Sequence[dict]) -> str:

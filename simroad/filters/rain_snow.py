@@ -64,6 +64,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from simroad._colour import hsi_intensity
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
@@ -93,8 +94,7 @@ def _rain_snow_planes(
     """Core of :func:`remove_rain_snow` on float32 planes in [0, 1]: (new planes, not
     clipped; bool (H, W) mask of the pixels it changed)."""
     guide_f = channel_max(planes) - channel_min(planes)  # Xu et al.: I_f = max_c I - min_c I
-    grey = channel_sum(planes)
-    grey *= np.float32(1.0 / 3.0)  # eq. 10
+    grey = hsi_intensity(channel_sum(planes))  # eq. 10
     # First pass. Only its grey image J_g is used, and the guided filter is linear
     # in the filtered image, so grey(filter(I)) = filter(grey(I)): one plane suffices.
     j_g = _guided_planes(guide_f, [grey], radius, eps, subsample=subsample)[0]

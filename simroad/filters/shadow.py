@@ -34,6 +34,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from simroad._colour import hsi_intensity, hsi_saturation
 from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
@@ -52,11 +53,10 @@ _TINY = np.float32(1e-6)
 _MAX_GAIN = 8.0
 
 
-def _ndi_planes(planes: list[np.ndarray]) -> np.ndarray:
+def _ndi_planes(planes: Planes) -> np.ndarray:
     total = channel_sum(planes)
-    v = total * np.float32(1.0 / 3.0)  # eq. 10
-    s = 1.0 - 3.0 * channel_min(planes) / np.maximum(total, _TINY)  # eq. 11
-    s[total < _TINY] = 0.0  # black: saturation undefined, taken as 0
+    v = hsi_intensity(total)  # eq. 10
+    s = hsi_saturation(total, channel_min(planes), tiny=_TINY)  # eq. 11, 0 on black
     den = s + v
     out = (s - v) / np.maximum(den, _TINY)  # eq. 13
     out[den < _TINY] = 0.0
