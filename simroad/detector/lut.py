@@ -16,7 +16,8 @@ smooth on the scale of a few grey levels), so the table reproduces the SVM exact
 for 8-bit colours; the tests and ``benchmarks/bench_detector.py`` check that against
 scikit-learn's ``SVC.predict``. Classifying a 320x180 frame is then a few integer
 operations per pixel instead of a kernel expansion over hundreds of support vectors
-(paper eq. 30 per pixel costs ~0.1-0.4 s a frame).
+(paper eq. 30 per pixel is two orders of magnitude slower; ``make bench`` measures
+both).
 """
 
 from __future__ import annotations

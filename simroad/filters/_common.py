@@ -1,4 +1,4 @@
-"""Shared plumbing of the filters: dtype round trips, channel planes, input checks.
+"""Shared plumbing of the filters: dtype round trips, channel planes, input checks, the result type.
 
 Every public filter accepts ``uint8`` images (0-255) or float images in [0, 1]
 (``float32`` or ``float64``) and hands back the caller's dtype. Internally the filters
@@ -15,7 +15,7 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from simroad._validation import check_image
+from simroad._validation import SimroadError, check_image, check_int_in_range
 
 __all__ = [
     "FILTER_DTYPES",
@@ -24,6 +24,7 @@ __all__ = [
     "channel_min",
     "channel_sum",
     "check_filter_image",
+    "check_odd_size",
     "clip_planes",
     "crop_box",
     "from_planes",
@@ -59,6 +60,14 @@ class FilterResult(NamedTuple):
 def check_filter_image(name: str, image: object) -> np.ndarray:
     """Validate a filter input: ``(H, W, 3)`` uint8 or float in [0, 1], finite, non-empty."""
     return check_image(name, image, dtype=FILTER_DTYPES, channels=3, min_size=1)
+
+
+def check_odd_size(name: str, value: object, low: int, high: int) -> int:
+    """Validate an odd window side in pixels, in ``[low, high]``; return it as an int."""
+    size = check_int_in_range(name, value, low, high)
+    if size % 2 == 0:
+        raise SimroadError(f"{name}: expected an odd window size, got {size}. Use {size + 1}.")
+    return size
 
 
 def to_planes(image: np.ndarray) -> Planes:

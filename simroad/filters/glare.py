@@ -16,13 +16,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range, check_int_in_range
+from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
     channel_max,
     channel_min,
     check_filter_image,
+    check_odd_size,
     crop_box,
     from_planes,
     to_planes,
@@ -172,9 +173,7 @@ def remove_glare(
         bool (H, W), the corrected pixels (the glare region and the inpainted ones).
     """
     image = check_filter_image("image", image)
-    fine = check_int_in_range("fine", fine, 1, 31)
-    if fine % 2 == 0:
-        raise SimroadError(f"fine: expected an odd window size, got {fine}. Use {fine + 1}.")
+    fine = check_odd_size("fine", fine, 1, 31)
     wide = check_int_in_range("wide", wide, 3, 4095)
     min_excess = check_in_range("min_excess", min_excess, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
     saturation = check_in_range("saturation", saturation, 0.0, 1.0, low_inclusive=False)

@@ -14,9 +14,10 @@ propagate larger values from diffuse neighbours with an edge-preserving filter w
 range kernel is the specular-invariant approximate diffuse chromaticity
 ``lambda_max = (sigma_max - sigma_min) / (1 - 3 sigma_min)``; keep the maximum of the
 two and repeat. Yang uses a joint bilateral filter; OpenCV's headless build has no
-joint bilateral (``cv2.ximgproc`` is absent) and a brute-force one costs tens of ms,
-so we use He's guided filter of ``sigma_max`` guided by ``lambda_max`` -- also
-edge-preserving, made of box filters, and well under 1 ms per pass at 320x180.
+joint bilateral (``cv2.ximgproc`` is absent) and a brute-force one costs more than
+the whole detector, so we use He's guided filter of ``sigma_max`` guided by
+``lambda_max`` -- also edge-preserving, made of box filters, and a small fraction of
+that per pass (``make bench`` times the filters on the machine at hand).
 
 Achromatic pixels (grey asphalt, white markings, overcast sky) have
 ``Lambda_max -> 1/3`` and ``1 - 3 Lambda_max -> 0``: the specular and diffuse parts
@@ -44,6 +45,7 @@ from simroad.filters._common import (
     channel_min,
     channel_sum,
     check_filter_image,
+    check_odd_size,
     crop_box,
     from_planes,
     to_planes,
@@ -56,13 +58,6 @@ __all__ = ["dark_channel", "remove_highlights", "specular_to_diffuse"]
 _TINY = np.float32(1e-6)
 
 
-def _check_patch(patch: int) -> int:
-    patch = check_int_in_range("patch", patch, 1, 255)
-    if patch % 2 == 0:
-        raise SimroadError(f"patch: expected an odd window size, got {patch}. Use {patch + 1}.")
-    return patch
-
-
 def _dark_channel(planes: list[np.ndarray], patch: int) -> np.ndarray:
     dark = channel_min(planes)
     if patch == 1:
@@ -71,7 +66,7 @@ def _dark_channel(planes: list[np.ndarray], patch: int) -> np.ndarray:
     return cv2.erode(dark, np.ones((patch, patch), np.uint8))
 
 
-def dark_channel(image: np.ndarray, patch: int = 7) -> np.ndarray:
+def dark_channel(image: np.ndarray, *, patch: int = 7) -> np.ndarray:
     """Dark channel ``I_dark(x) = min_{y in Omega(x)} min_c I^c(y)`` (paper eq. 24).
 
     Parameters
@@ -87,7 +82,7 @@ def dark_channel(image: np.ndarray, patch: int = 7) -> np.ndarray:
     ndarray, (H, W), same dtype as ``image``
     """
     image = check_filter_image("image", image)
-    patch = _check_patch(patch)
+    patch = check_odd_size("patch", patch, 1, 255)
     src = image.astype(np.float32) if image.dtype == np.float64 else image
     planes = [np.ascontiguousarray(src[..., c]) for c in range(3)]
     return _dark_channel(planes, patch).astype(image.dtype, copy=False)
@@ -265,7 +260,7 @@ def remove_highlights(
         threshold, so the mask is empty and the image is returned unchanged.
     """
     image = check_filter_image("image", image)
-    patch = _check_patch(patch)
+    patch = check_odd_size("patch", patch, 1, 255)
     radius = check_int_in_range("radius", radius, 1, 64)
     eps = check_in_range("eps", eps, 0.0, 1.0, low_inclusive=False)
     iterations = check_int_in_range("iterations", iterations, 0, 10)

@@ -155,7 +155,7 @@ def remove_rain_snow(
     subsample : int, optional
         Compute the guided-filter coefficients on an image this many times smaller
         (He & Sun's fast guided filter), in [1, 4]; 1 is the exact filter. The
-        default 2 halves the cost (about 1.5 ms instead of 3 ms at 320x180).
+        default 2 halves the cost (``make bench`` times it).
     achromatic : bool, optional
         The improved variant: instead of ``min(I, q + tolerance)`` per channel,
         subtract ``max(0, I_g - q_g - tolerance)`` (grey image ``I_g`` of eq. 10, ``q_g``

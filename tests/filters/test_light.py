@@ -28,14 +28,14 @@ def test_dark_channel_matches_naive_loop(patch, dtype):
     img = rng.integers(0, 256, (13, 17, 3)).astype(np.uint8)
     if dtype == "float32":
         img = (img / 255).astype(np.float32)
-    got = dark_channel(img, patch)
+    got = dark_channel(img, patch=patch)
     assert got.dtype == img.dtype and got.shape == img.shape[:2]
     np.testing.assert_array_equal(got, dark_channel_loop(img, patch))
 
 
 def test_dark_channel_rejects_even_patch():
     with pytest.raises(SimroadError, match=r"patch: expected an odd window size, got 4\. Use 5\."):
-        dark_channel(np.zeros((5, 5, 3), np.uint8), 4)
+        dark_channel(np.zeros((5, 5, 3), np.uint8), patch=4)
 
 
 def test_eq27_recovers_the_diffuse_colour_of_a_constructed_pixel():
