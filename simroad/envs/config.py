@@ -10,10 +10,11 @@ from typing import Any
 from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
+from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.noise import parse_noise
 
-__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]
+__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
-SCENARIO_NAMES = ("racetrack", "highway", "winding")
 _CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
 
 
@@ -23,7 +24,9 @@ class RoadCamConfig:
 
     Parameters
     ----------
-    scenario : {"racetrack", "highway", "winding"}
+    scenario : str
+        A key of :data:`simroad.envs.scenarios.SCENARIOS` (``racetrack``, ``highway``,
+        ``winding``).
     camera : CameraConfig
         Image size, field of view, mounting (see :class:`CameraConfig`).
     noise : str
@@ -72,8 +75,6 @@ class RoadCamConfig:
             check_choice("roadside", self.roadside, ROADSIDE_KINDS)
         if not isinstance(self.noise, str):
             raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
-        from simroad.noise import parse_noise
-
         object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
 
     @classmethod

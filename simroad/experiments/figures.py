@@ -6,6 +6,7 @@ import os
 from pathlib import Path
 
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["camera_figure"]
 
@@ -28,8 +29,8 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
     for row, scenario in enumerate(SCENARIO_NAMES):
         env = RoadCamEnv(scenario=scenario, render_mode="rgb_array")
         obs, _ = env.reset(seed=seed + row)
-        for _ in range(steps):
-            obs, *_ = env.step(env.autopilot_action())
+        if steps > 0:
+            obs, _ = drive_autopilot(env, steps)
         panels = (obs, env.render(), env.render_bev(size=(120, 240)))
         titles = (f"{scenario}: camera", "ground-truth road outline", "bird's-eye view")
         for ax, img, title in zip(axes[row], panels, titles):
