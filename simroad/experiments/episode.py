@@ -1,5 +1,6 @@
-"""One closed-loop episode: camera -> (detector) -> controller -> highway-env, scored
-on the mask and on safety.
+"""Run one closed-loop episode and score it on the mask and on safety.
+
+The loop: camera -> (detector) -> controller -> highway-env.
 
 The record it returns (``simroad episode --json``) has these keys:
 
