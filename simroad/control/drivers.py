@@ -23,6 +23,7 @@ from simroad._validation import SimroadError, check_choice
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_keeping import MaskLaneKeeper
+from simroad.detector import RoadDetector
 from simroad.envs.scenarios import SCENARIOS, get_scenario
 
 __all__ = ["DRIVER_NAMES", "CallableDriver", "MaskDriver", "make_driver"]
@@ -137,7 +138,5 @@ def make_driver(
     if driver == "oracle":
         return MaskDriver(env.camera, control)
     if detector is None:
-        from simroad.detector import RoadDetector
-
         detector = RoadDetector.pretrained(filters=tuple(filters))
     return MaskDriver(env.camera, control, detector=detector)

@@ -42,6 +42,8 @@ from simroad._validation import SimroadError, check_choice, check_in_range, chec
 from simroad.control.drivers import DRIVER_NAMES, make_driver
 from simroad.envs import RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
+from simroad.experiments.video import EpisodeVideo
+from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
 __all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "parse_filters", "run_episode"]
@@ -121,12 +123,6 @@ _MAX_DURATION_S = 1e3
 _ROUTE_SPEED_FRACTION = 0.8
 
 
-def _mask_scorer():
-    from simroad.metrics.mask import MaskScore
-
-    return MaskScore()
-
-
 def run_episode(
     spec: EpisodeSpec,
     *,
@@ -158,12 +154,10 @@ def run_episode(
     pilot.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
-    masks = _mask_scorer()
+    masks = MaskScore()
     valid = env.camera.ground_valid
     recorder = None
     if video is not None:
-        from simroad.experiments.video import EpisodeVideo
-
         recorder = EpisodeVideo(video, env)
     detect_ms, step_ms = [], []
     steps = 0

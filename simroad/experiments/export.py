@@ -9,6 +9,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from simroad._validation import SimroadError, check_int_in_range
 from simroad.envs import RoadCamEnv
@@ -72,8 +73,6 @@ def export_frames(
     obs, info = env.reset(seed=int(seed))
     cam = env.camera
     frames_meta = []
-    from tqdm import tqdm
-
     for k in tqdm(range(count), disable=not progress, desc="frames", unit="frame"):
         if k > 0:
             obs, info = drive_autopilot(env, every, reset_seed=int(seed) + k)
