@@ -10,7 +10,7 @@ from typing import Any
 from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
-from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
 from simroad.noise import parse_noise
 
 __all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
@@ -42,7 +42,8 @@ class RoadCamConfig:
     traffic : bool
         Other vehicles on the road.
     duration_s : float
-        Episode time limit in simulated seconds (truncation).
+        Episode time limit in simulated seconds (truncation), from one policy period
+        of the scenario (0.2 s) to 3600 s.
     roadside : str, optional
         Force the roadside material (grass, dirt, gravel, pavement); drawn per seed
         when None.
@@ -67,7 +68,8 @@ class RoadCamConfig:
         if not isinstance(self.camera, CameraConfig):
             raise SimroadError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
         object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
-        object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, 0.2, 3600.0, unit="s"))
+        period = SCENARIOS[self.scenario].policy_period_s  # at least one policy step
+        object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, period, 3600.0, unit="s"))
         object.__setattr__(
             self, "max_offroad_m", check_in_range("max_offroad_m", self.max_offroad_m, 0.0, 50.0, unit="m")
         )
