@@ -13,6 +13,7 @@ def main() -> None:
 
     import simroad  # noqa: F401
     from simroad.envs import RoadCamEnv
+    from simroad.experiments.rollout import autopilot_env_action
 
     small = RoadCamEnv(scenario="racetrack")
     small.reset(seed=0)
@@ -23,7 +24,7 @@ def main() -> None:
 
     poses = []
     for _ in range(40):  # poses along a lap, re-used by every candidate
-        small.step(small.autopilot_action())
+        small.step(autopilot_env_action(small))
         poses.append((small._pose(), small._others()))
     it = {"k": 0}
 

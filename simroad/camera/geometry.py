@@ -228,17 +228,6 @@ class PinholeCamera:
         out[~self.ground_valid] = np.nan
         return out
 
-    def ground_points_world(self) -> np.ndarray:
-        """World ``(x, y)`` of every pixel's ground point, shape (H, W, 2); NaN off-ground."""
-        g = self._ego_ground
-        ch, sh = math.cos(self.pose[2]), math.sin(self.pose[2])
-        X, Y = g[..., 0], g[..., 1]
-        wx = self.pose[0] + ch * X - sh * Y
-        wy = self.pose[1] + sh * X + ch * Y
-        out = np.stack([wx, wy], axis=-1)
-        out[~self.ground_valid] = np.nan
-        return out
-
 
 def _as_points(name: str, pts: np.ndarray) -> np.ndarray:
     arr = np.asarray(pts, dtype=float)

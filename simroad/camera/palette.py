@@ -44,10 +44,16 @@ class Palette:
     grain: float  # standard deviation of the texture in colour units
 
 
+def _rgb(values: np.ndarray) -> tuple[int, int, int]:
+    """Three colour values (0-255) as an ``(r, g, b)`` tuple of ints (truncated)."""
+    r, g, b = (int(v) for v in values)
+    return (r, g, b)
+
+
 def _jitter(rgb: tuple[int, int, int], amount: float, rng: np.random.Generator) -> tuple[int, int, int]:
     base = np.asarray(rgb, dtype=float)
     shift = rng.normal(0.0, amount) + rng.normal(0.0, amount / 3.0, size=3)
-    return tuple(int(v) for v in np.clip(base + shift, 0, 255))
+    return _rgb(np.clip(base + shift, 0, 255))
 
 
 #: Minimum luma difference (0-255) between asphalt and a shoulder or a non-green
@@ -64,7 +70,7 @@ def _luma(rgb) -> float:
 def _brighter_than(rgb: tuple[int, int, int], floor: float) -> tuple[int, int, int]:
     """Lift ``rgb`` uniformly until its luma reaches ``floor``."""
     lift = max(0.0, floor - _luma(rgb))
-    return tuple(int(v) for v in np.clip(np.asarray(rgb, dtype=float) + lift, 0, 255))
+    return _rgb(np.clip(np.asarray(rgb, dtype=float) + lift, 0, 255))
 
 
 def draw_palette(rng: np.random.Generator, roadside: str | None = None) -> Palette:
@@ -80,7 +86,7 @@ def draw_palette(rng: np.random.Generator, roadside: str | None = None) -> Palet
     sh_rgb, sh_j = _SHOULDER_RGB[sh_kind]
     grey = rng.uniform(50, 85)
     tint = rng.normal(0.0, 3.0, size=3)
-    asphalt = tuple(int(v) for v in np.clip(grey + tint, 0, 255))
+    asphalt = _rgb(np.clip(grey + tint, 0, 255))
     floor = _luma(asphalt) + MIN_LUMA_MARGIN
     roadside_rgb = _jitter(rs_rgb, rs_j, rng)
     if kind != "grass":

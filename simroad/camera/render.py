@@ -10,6 +10,7 @@ near.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import cv2
@@ -137,7 +138,7 @@ class CameraRenderer:
         f = self._footprint
         return np.column_stack([x + ch * f[:, 0] - sh * f[:, 1], y + sh * f[:, 0] + ch * f[:, 1]])
 
-    def render(self, pose: tuple[float, float, float], vehicles: list[VehicleBox] = ()) -> Frame:
+    def render(self, pose: tuple[float, float, float], vehicles: Sequence[VehicleBox] = ()) -> Frame:
         """Render the frame seen from ego ``pose = (x, y, heading)``."""
         cam = self.camera
         cam.set_pose(*pose)
@@ -292,7 +293,7 @@ def render_bev(
     size: tuple[int, int] = (240, 320),
     metres_per_px: float = 0.25,
     behind_m: float = 15.0,
-    vehicles: list[VehicleBox] = (),
+    vehicles: Sequence[VehicleBox] = (),
     ego: VehicleBox | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Bird's-eye view of the world around the ego, heading pointing up.

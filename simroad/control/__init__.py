@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from simroad.control.autopilot import autopilot_action, pure_pursuit_steering
-from simroad.control.drivers import DRIVER_NAMES, SCENARIO_CONTROL, CallableDriver, MaskDriver, make_driver
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, PathEstimate
+from simroad.control.config import ControllerConfig
+from simroad.control.drivers import DRIVER_NAMES, CallableDriver, MaskDriver, make_driver
+from simroad.control.lane_estimate import LaneEstimator, PathEstimate
+from simroad.control.lane_keeping import MaskLaneKeeper
 
 __all__ = [
     "DRIVER_NAMES",
-    "SCENARIO_CONTROL",
     "CallableDriver",
     "ControllerConfig",
+    "LaneEstimator",
     "MaskDriver",
     "MaskLaneKeeper",
     "PathEstimate",
@@ -18,3 +22,11 @@ __all__ = [
     "make_driver",
     "pure_pursuit_steering",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "SCENARIO_CONTROL":  # deprecated: see simroad.control.drivers
+        from simroad.control import drivers
+
+        return drivers.__getattr__(name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -11,10 +11,20 @@ import math
 
 import numpy as np
 
-__all__ = ["STEERING_RANGE_RAD", "autopilot_action", "lane_lookahead_point", "pure_pursuit_steering"]
+from simroad.envs.routes import follow_lanes
+
+__all__ = [
+    "MAX_LOOKAHEAD_LANES",
+    "STEERING_RANGE_RAD",
+    "autopilot_action",
+    "lane_lookahead_point",
+    "pure_pursuit_steering",
+]
 
 #: highway-env's ``ContinuousAction`` maps steering action 1.0 to pi/4 rad.
 STEERING_RANGE_RAD = math.pi / 4
+#: Lane ends a look-ahead point may cross (far more than any look-ahead needs).
+MAX_LOOKAHEAD_LANES = 8
 
 
 def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, wheelbase_m: float) -> float:
@@ -34,27 +44,42 @@ def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, 
 
 
 def lane_lookahead_point(road, vehicle, lookahead_m: float) -> np.ndarray:
-    """World point ``lookahead_m`` ahead along the centre of the vehicle's lane."""
+    """World point ``lookahead_m`` ahead along the centre of the vehicle's lane.
+
+    Follows the lane's successors (:func:`simroad.envs.routes.follow_lanes`) across
+    at most :data:`MAX_LOOKAHEAD_LANES` lane ends; at a dead end the point is the last
+    lane's end.
+    """
     net = road.network
     index = net.get_closest_lane_index(vehicle.position, vehicle.heading)
-    lane = net.get_lane(index)
-    s, _ = lane.local_coordinates(vehicle.position)
+    s, _ = net.get_lane(index).local_coordinates(vehicle.position)
     s_target = s + lookahead_m
-    for _ in range(8):
-        if s_target <= lane.length:
+    for k, (_index, lane) in enumerate(follow_lanes(net, index, position=vehicle.position)):
+        if s_target <= lane.length or k == MAX_LOOKAHEAD_LANES:
             break
         s_target -= lane.length
-        # Scenario roads have one successor per lane; the fixed generator only breaks ties.
-        nxt = net.next_lane(index, route=None, position=vehicle.position, np_random=np.random.default_rng(0))
-        if nxt is None or nxt[:2] == index[:2]:
-            s_target = lane.length
-            break
-        index, lane = nxt, net.get_lane(nxt)
+    else:  # dead end
+        s_target = lane.length
     return np.asarray(lane.position(s_target, 0.0))
 
 
 def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m: float = 6.0) -> float:
-    """Steering action in [-1, 1] for highway-env's ``ContinuousAction``."""
+    """Steering action in [-1, 1] for highway-env's ``ContinuousAction``.
+
+    Pure pursuit from the rear axle onto the true lane centre, ``max(min_lookahead_m,
+    lookahead_s * speed)`` metres ahead.
+
+    Parameters
+    ----------
+    road : highway_env.road.road.Road
+        The world (``env.highway_env.road`` of a :class:`~simroad.envs.RoadCamEnv`).
+    vehicle : highway_env.vehicle.kinematics.Vehicle
+        The car to steer (``env.vehicle``).
+    lookahead_s : float
+        Look-ahead time in s.
+    min_lookahead_m : float
+        Shortest look-ahead in m.
+    """
     ld = max(min_lookahead_m, lookahead_s * float(vehicle.speed))
     target = lane_lookahead_point(road, vehicle, ld)
     # Rear axle: the point of highway-env's kinematic bicycle that moves along the heading.

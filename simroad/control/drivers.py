@@ -13,24 +13,42 @@ plugs in the same way through :class:`CallableDriver`.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper
+from simroad.camera.geometry import PinholeCamera
+from simroad.control.config import ControllerConfig
+from simroad.control.lane_keeping import MaskLaneKeeper
+from simroad.detector import RoadDetector
+from simroad.envs.scenarios import SCENARIOS, get_scenario
 
-__all__ = ["DRIVER_NAMES", "SCENARIO_CONTROL", "CallableDriver", "MaskDriver", "make_driver"]
+__all__ = ["DRIVER_NAMES", "CallableDriver", "MaskDriver", "make_driver"]
 
 DRIVER_NAMES = ("detector", "oracle")
 
-#: Map priors per scenario: nominal lane width (m) and cruise speed (m/s).
-SCENARIO_CONTROL = {
-    "racetrack": {"lane_width_m": 5.0, "target_speed_m_s": 10.0},
-    "highway": {"lane_width_m": 4.0, "target_speed_m_s": 25.0},
-    "winding": {"lane_width_m": 3.5, "target_speed_m_s": 15.0},
-}
+
+def __getattr__(name: str) -> Any:
+    if name == "SCENARIO_CONTROL":
+        warnings.warn(
+            "SCENARIO_CONTROL is deprecated: read lane_width_m and cruise_speed_m_s from "
+            "simroad.envs.get_scenario(name), or use ControllerConfig.for_scenario(spec).",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return _scenario_control()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _scenario_control() -> Mapping[str, Mapping[str, float]]:
+    """The old per-scenario map priors, computed from the scenario specs."""
+    return {
+        name: {"lane_width_m": spec.lane_width_m, "target_speed_m_s": spec.cruise_speed_m_s}
+        for name, spec in SCENARIOS.items()
+    }
 
 
 class MaskDriver:
@@ -38,23 +56,31 @@ class MaskDriver:
 
     Parameters
     ----------
-    env : RoadCamEnv
-        The (unwrapped) environment; only its camera calibration is used.
-    detector : RoadDetector or None
+    camera : PinholeCamera
+        The calibrated camera that produced the frames (its mounting only).
+    control : ControllerConfig
+        The controller's parameters, e.g. ``ControllerConfig.for_scenario(spec)``.
+    detector : object with ``predict(uint8 (H, W, 3)) -> bool (H, W)``, optional
         None means the oracle: the mask is ``info["road_mask"]``.
-    control : ControllerConfig, optional
+
+    Actions are ``[steering, acceleration]``: the environment must be created with
+    ``longitudinal=True`` (:func:`make_driver` checks it).
     """
 
-    def __init__(self, env, detector=None, control: ControllerConfig | None = None) -> None:
-        if not env.config.longitudinal:
-            raise SimroadError("env: mask drivers control speed too; create the environment with longitudinal=True.")
+    def __init__(self, camera: PinholeCamera, control: ControllerConfig, *, detector: Any = None) -> None:
+        if not isinstance(camera, PinholeCamera):
+            raise SimroadError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
+        if not isinstance(control, ControllerConfig):
+            raise SimroadError(
+                f"control: expected a ControllerConfig (ControllerConfig.for_scenario(spec)), "
+                f"got {type(control).__name__}."
+            )
         self.detector = detector
-        self.controller = MaskLaneKeeper(
-            env.camera, control or ControllerConfig(**SCENARIO_CONTROL[env.config.scenario])
-        )
+        self.controller = MaskLaneKeeper(camera, control)
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:
+        """Forget the controller's memory of the previous episode."""
         self.controller.reset()
 
     def __call__(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
@@ -74,6 +100,7 @@ class CallableDriver:
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:
+        """Call the wrapped callable's ``reset()``, if it has one."""
         reset = getattr(self.fn, "reset", None)
         if callable(reset):
             reset()
@@ -85,19 +112,31 @@ class CallableDriver:
         return np.asarray(out, dtype=np.float32)
 
 
-def make_driver(driver: str | Callable, env, *, filters: Sequence[str] = (), detector=None):
+def make_driver(
+    driver: str | Callable,
+    env: Any,
+    *,
+    filters: Sequence[str] = (),
+    detector: Any = None,
+    control: ControllerConfig | None = None,
+) -> MaskDriver | CallableDriver:
     """Build a driver by name (``"detector"`` or ``"oracle"``) or wrap a callable.
 
+    A convenience over :class:`MaskDriver`: it takes the camera and the scenario
+    (``ControllerConfig.for_scenario``, unless ``control`` is given) from ``env``, an
+    unwrapped :class:`~simroad.envs.RoadCamEnv` created with ``longitudinal=True``.
     For ``"detector"``, ``detector`` defaults to the shipped pretrained model with the
     given ``filters``.
     """
     if callable(driver) and not isinstance(driver, str):
         return CallableDriver(driver)
     check_choice("driver", driver, DRIVER_NAMES)
+    if not env.config.longitudinal:
+        raise SimroadError("env: mask drivers control speed too; create the environment with longitudinal=True.")
+    if control is None:
+        control = ControllerConfig.for_scenario(get_scenario(env.config.scenario))
     if driver == "oracle":
-        return MaskDriver(env)
+        return MaskDriver(env.camera, control)
     if detector is None:
-        from simroad.detector import RoadDetector
-
         detector = RoadDetector.pretrained(filters=tuple(filters))
-    return MaskDriver(env, detector=detector)
+    return MaskDriver(env.camera, control, detector=detector)

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-from simroad.envs.config import SCENARIO_NAMES, RoadCamConfig
+from simroad.envs.config import RoadCamConfig
 from simroad.envs.roadcam import RoadCamEnv
+from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS, ScenarioSpec, get_scenario
 
-__all__ = ["ENV_ID", "SCENARIO_NAMES", "RoadCamConfig", "RoadCamEnv"]
+__all__ = ["ENV_ID", "SCENARIOS", "SCENARIO_NAMES", "RoadCamConfig", "RoadCamEnv", "ScenarioSpec", "get_scenario"]
 
 ENV_ID = "simroad/RoadCam-v0"
 

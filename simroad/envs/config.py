@@ -10,10 +10,11 @@ from typing import Any
 from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
+from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
+from simroad.noise import parse_noise
 
-__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]
+__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
-SCENARIO_NAMES = ("racetrack", "highway", "winding")
 _CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
 
 
@@ -23,7 +24,9 @@ class RoadCamConfig:
 
     Parameters
     ----------
-    scenario : {"racetrack", "highway", "winding"}
+    scenario : str
+        A key of :data:`simroad.envs.scenarios.SCENARIOS` (``racetrack``, ``highway``,
+        ``winding``).
     camera : CameraConfig
         Image size, field of view, mounting (see :class:`CameraConfig`).
     noise : str
@@ -39,7 +42,8 @@ class RoadCamConfig:
     traffic : bool
         Other vehicles on the road.
     duration_s : float
-        Episode time limit in simulated seconds (truncation).
+        Episode time limit in simulated seconds (truncation), from one policy period
+        of the scenario (0.2 s) to 3600 s.
     roadside : str, optional
         Force the roadside material (grass, dirt, gravel, pavement); drawn per seed
         when None.
@@ -64,7 +68,8 @@ class RoadCamConfig:
         if not isinstance(self.camera, CameraConfig):
             raise SimroadError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
         object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
-        object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, 0.2, 3600.0, unit="s"))
+        period = SCENARIOS[self.scenario].policy_period_s  # at least one policy step
+        object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, period, 3600.0, unit="s"))
         object.__setattr__(
             self, "max_offroad_m", check_in_range("max_offroad_m", self.max_offroad_m, 0.0, 50.0, unit="m")
         )
@@ -72,8 +77,6 @@ class RoadCamConfig:
             check_choice("roadside", self.roadside, ROADSIDE_KINDS)
         if not isinstance(self.noise, str):
             raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
-        from simroad.noise import parse_noise
-
         object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
 
     @classmethod

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any, ClassVar
+from typing import Any
 
 import cv2
 import gymnasium as gym
@@ -13,9 +13,9 @@ from gymnasium import spaces
 from simroad._validation import SimroadError, check_choice
 from simroad.camera import CameraRenderer, PinholeCamera, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
-from simroad.control.autopilot import autopilot_action
 from simroad.envs.config import RoadCamConfig
-from simroad.envs.scenarios import make_highway_env
+from simroad.envs.scenarios import POLICY_HZ, get_scenario
+from simroad.noise import NoiseContext, Weather, make_weather
 
 __all__ = ["RoadCamEnv"]
 
@@ -56,26 +56,52 @@ class RoadCamEnv(gym.Env):
     ## Arguments
     ``gymnasium.make("simroad/RoadCam-v0", scenario="winding", width=640,
     height=360, noise="rain+glare", severity=0.7)``; see :class:`RoadCamConfig`.
+    Either keywords or ``config=RoadCamConfig(...)``, not both.
+
+    ## Reset
+    ``reset(seed=...)`` draws a new world (palette, textures), new traffic and a new
+    weather state from the seed. ``options`` takes no keys; a non-empty dict is
+    refused.
+
+    ## Ground-truth driving
+    The environment carries no policy; :func:`simroad.control.autopilot_action`
+    steers along the true lane centre given ``env.highway_env.road`` and
+    ``env.vehicle``.
     """
 
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 5}
+    # gymnasium.Env declares ``metadata`` as a plain (instance-typed) attribute.
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": POLICY_HZ}  # noqa: RUF012
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+    def __init__(self, render_mode: str | None = None, *, config: RoadCamConfig | None = None, **kwargs: Any) -> None:
         if render_mode is not None:
             check_choice("render_mode", render_mode, self.metadata["render_modes"])
+        if config is not None and kwargs:
+            raise SimroadError(
+                f"config: got config=RoadCamConfig(...) together with the keywords {', '.join(sorted(kwargs))}, "
+                "which it would silently override. Pass either config= or keywords, e.g. "
+                "config=dataclasses.replace(config, ...)."
+            )
+        if config is not None and not isinstance(config, RoadCamConfig):
+            raise SimroadError(f"config: expected a RoadCamConfig, got {type(config).__name__}.")
         self.render_mode = render_mode
-        self.config = kwargs.pop("config", None) or RoadCamConfig.from_kwargs(**kwargs)
+        self.config = config if config is not None else RoadCamConfig.from_kwargs(**kwargs)
         c = self.config
+        self.scenario = get_scenario(c.scenario)
         self.camera = PinholeCamera(c.camera)
-        self._hw = make_highway_env(c.scenario, longitudinal=c.longitudinal, traffic=c.traffic, duration_s=c.duration_s)
-        self.dt = 1.0 / float(self._hw.config["policy_frequency"])
+        self._hw = self.scenario.make_env(longitudinal=c.longitudinal, traffic=c.traffic, duration_s=c.duration_s)
+        self.dt = self.scenario.policy_period_s
         H, W = c.camera.height, c.camera.width
         self.observation_space = spaces.Box(0, 255, (H, W, 3), dtype=np.uint8)
         n = 2 if c.longitudinal else 1
         self.action_space = spaces.Box(-1.0, 1.0, (n,), dtype=np.float32)
+        # Per-episode state, (re)built by reset().
         self.world: WorldRaster | None = None
         self.renderer: CameraRenderer | None = None
-        self.weather = None
+        self.weather: Weather | None = None
+        self._vehicle_rgb: dict[int, tuple[int, int, int]] = {}
+        self._colour_rng: np.random.Generator | None = None
+        self._prev_heading = 0.0
+        self._time = 0.0
         self._obs: np.ndarray | None = None
         self._info: dict[str, Any] = {}
 
@@ -90,7 +116,12 @@ class RoadCamEnv(gym.Env):
         """The ego vehicle (a highway-env ``Vehicle``)."""
         return self._hw.vehicle
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        if options:
+            raise SimroadError(
+                f"options: RoadCamEnv.reset takes no options, got {sorted(map(str, options))}. "
+                "Configure the environment with its constructor keywords instead."
+            )
         super().reset(seed=seed)
         rng = self.np_random
         self._hw.reset(seed=int(rng.integers(2**31 - 1)))
@@ -101,15 +132,15 @@ class RoadCamEnv(gym.Env):
         palette = draw_palette(world_rng, roadside=self.config.roadside)
         self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)
         self.renderer = CameraRenderer(self.camera, self.world, world_rng)
-        self._vehicle_rgb: dict[int, tuple[int, int, int]] = {}
+        self._vehicle_rgb = {}
         self._colour_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
-        self._weather_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
+        weather_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
         self.weather = None
         if self.config.noise != "clear":
-            from simroad.noise import make_weather
-
-            self.weather = make_weather(self.config.noise, self.config.severity, params=self.config.noise_params)
-            self.weather.reset(self._weather_rng, world=self.world)
+            self.weather = make_weather(
+                self.config.noise, severity=self.config.severity, params=self.config.noise_params
+            )
+            self.weather.reset(weather_rng, world=self.world)
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0
         return self._observe(crashed=False)
@@ -151,13 +182,6 @@ class RoadCamEnv(gym.Env):
         )
         return rgb
 
-    def autopilot_action(self) -> np.ndarray:
-        """A ground-truth lane-following action (reads highway-env's lanes, not the camera)."""
-        steer = autopilot_action(self._hw.road, self.vehicle)
-        if self.config.longitudinal:
-            return np.array([steer, 0.0], dtype=np.float32)
-        return np.array([steer], dtype=np.float32)
-
     def close(self) -> None:
         self._hw.close()
 
@@ -170,7 +194,10 @@ class RoadCamEnv(gym.Env):
         if rgb is None:
             rgb = self._vehicle_rgb.get(id(v))
             if rgb is None:
-                rgb = tuple(int(c) for c in self._colour_rng.integers(20, 236, size=3))
+                if self._colour_rng is None:
+                    raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
+                r, g, b = (int(c) for c in self._colour_rng.integers(20, 236, size=3))
+                rgb = (r, g, b)
                 self._vehicle_rgb[id(v)] = rgb
         return VehicleBox(
             float(v.position[0]), float(v.position[1]), float(v.heading), float(v.LENGTH), float(v.WIDTH), rgb
@@ -202,11 +229,12 @@ class RoadCamEnv(gym.Env):
         return index[1] == nodes[-1] and s >= lane.length - 10.0
 
     def _observe(self, *, crashed: bool):
+        if self.renderer is None:
+            raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
         frame = self.renderer.render(self._pose(), self._others())
-        rgb, masks = frame.rgb, {}
+        rgb = frame.rgb
+        masks: dict[str, np.ndarray] = {}
         if self.weather is not None:
-            from simroad.noise import NoiseContext
-
             yaw = math.atan2(
                 math.sin(self.vehicle.heading - self._prev_heading), math.cos(self.vehicle.heading - self._prev_heading)
             )

@@ -1,4 +1,4 @@
-"""The three scenarios, translated to highway-env environments at this one boundary.
+"""The scenario registry: one frozen spec per scenario, every fact about it in one place.
 
 ``racetrack``
     highway-env's curvy two-lane circuit (``RacetrackEnv``), one other car.
@@ -7,84 +7,201 @@
 ``winding``
     :class:`simroad.envs.winding.WindingRoadEnv`, a two-lane country road generated
     from the seed: straights and arcs, >= 1.5 km, radii >= ~43 m (lane centre).
+
+Each :class:`ScenarioSpec` holds the policy and simulation rates, the nominal lane
+width and cruise speed (the controller's map priors), the scored route, the traffic
+defaults and the factory of the highway-env environment; control and experiments
+read them from here (:func:`get_scenario`). The translation to highway-env's config
+dict happens only in the factories below.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 from highway_env.envs.common.abstract import AbstractEnv
 from highway_env.envs.highway_env import HighwayEnv
 from highway_env.envs.racetrack_env import RacetrackEnv
 
+from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.envs.winding import WindingRoadEnv
 
-__all__ = ["SCENARIOS", "make_highway_env"]
+__all__ = [
+    "OPEN_ROUTE_M",
+    "POLICY_HZ",
+    "SCENARIOS",
+    "SCENARIO_NAMES",
+    "SIMULATION_HZ",
+    "ScenarioSpec",
+    "get_scenario",
+    "make_highway_env",
+]
+
+#: Camera frames and actions per simulated second, in Hz (every scenario).
+POLICY_HZ = 5
+#: highway-env physics steps per simulated second, in Hz (every scenario).
+SIMULATION_HZ = 15
+#: Route length scored on open roads, in m.
+OPEN_ROUTE_M = 1000.0
+
+#: factory(spec, longitudinal, traffic, duration_s) -> highway-env environment.
+EnvFactory = Callable[["ScenarioSpec", bool, bool, float], AbstractEnv]
 
 
-#: Every scenario simulates at 15 Hz and takes a camera frame and an action at 5 Hz.
-_TIMING = {"simulation_frequency": 15, "policy_frequency": 5}
+@dataclass(frozen=True)
+class ScenarioSpec:
+    """Everything simroad knows about one scenario.
 
+    Parameters
+    ----------
+    name : str
+        Registry key, e.g. ``"racetrack"``.
+    summary : str
+        One line for help texts.
+    factory : callable
+        ``factory(spec, longitudinal, traffic, duration_s)`` creating the highway-env
+        environment; use :meth:`make_env`.
+    lane_width_m : float
+        Nominal lane width in m (the road's: highway-env's own on the racetrack and
+        the highway, the generated road's on ``winding``).
+    cruise_speed_m_s : float
+        Cruise speed of the drivers in m/s.
+    lanes_count : int
+        Lanes in the ego's direction of travel.
+    route_is_lap : bool
+        True when the ego's lanes close into a ring: episodes are then scored
+        against one lap (measured on the network at reset), else against
+        ``route_m``.
+    route_m : float
+        Route length in m of an open road (and of a lap scenario whose lanes
+        unexpectedly do not close).
+    traffic_vehicles : mapping of str to int
+        highway-env config keys that count other vehicles, with their values when
+        traffic is on (all are 0 with ``traffic=False``).
+    policy_hz, simulation_hz : int
+        Policy (camera frame and action) and physics rates in Hz; ``simulation_hz``
+        is a multiple of ``policy_hz``.
+    """
 
-def _action(longitudinal: bool) -> dict:
-    return {
-        "type": "ContinuousAction",
-        "longitudinal": bool(longitudinal),
-        "lateral": True,
-        "clip": True,
-    }
+    name: str
+    summary: str
+    factory: EnvFactory
+    lane_width_m: float
+    cruise_speed_m_s: float
+    lanes_count: int
+    route_is_lap: bool = False
+    route_m: float = OPEN_ROUTE_M
+    traffic_vehicles: Mapping[str, int] = field(default_factory=dict)
+    policy_hz: int = POLICY_HZ
+    simulation_hz: int = SIMULATION_HZ
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise SimroadError(f"name: expected a non-empty scenario name, got {self.name!r}.")
+        if not callable(self.factory):
+            raise SimroadError(f"factory: expected a callable creating a highway-env env, got {self.factory!r}.")
+        check_in_range("lane_width_m", self.lane_width_m, 1.0, 10.0, unit="m")
+        check_in_range("cruise_speed_m_s", self.cruise_speed_m_s, 0.0, 60.0, unit="m/s")
+        check_int_in_range("lanes_count", self.lanes_count, 1, 20)
+        check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
+        check_int_in_range("policy_hz", self.policy_hz, 1, 100)
+        check_int_in_range("simulation_hz", self.simulation_hz, 1, 1000)
+        if self.simulation_hz % self.policy_hz:
+            raise SimroadError(
+                f"simulation_hz: expected a multiple of policy_hz={self.policy_hz} Hz, got {self.simulation_hz} Hz."
+            )
+        for key, count in self.traffic_vehicles.items():
+            check_int_in_range(f"traffic_vehicles[{key!r}]", count, 0, 1000)
+        object.__setattr__(self, "traffic_vehicles", MappingProxyType(dict(self.traffic_vehicles)))
 
-def _racetrack(longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
-    return RacetrackEnv(
-        config={
-            "observation": {"type": "Kinematics"},
-            "action": _action(longitudinal),
-            "other_vehicles": 1 if traffic else 0,
-            "terminate_off_road": False,
+    @property
+    def policy_period_s(self) -> float:
+        """Simulated seconds between two camera frames (and actions)."""
+        return 1.0 / self.policy_hz
+
+    def make_env(self, *, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+        """Create the highway-env environment of this scenario."""
+        return self.factory(self, longitudinal, traffic, duration_s)
+
+    def highway_env_config(self, *, longitudinal: bool, traffic: bool, duration_s: float) -> dict[str, Any]:
+        """The config keys every scenario's highway-env environment shares."""
+        return {
+            "action": {"type": "ContinuousAction", "longitudinal": bool(longitudinal), "lateral": True, "clip": True},
             "duration": duration_s,
             "offscreen_rendering": True,
-            **_TIMING,
+            "simulation_frequency": self.simulation_hz,
+            "policy_frequency": self.policy_hz,
+            **{key: count if traffic else 0 for key, count in self.traffic_vehicles.items()},
         }
-    )
 
 
-def _highway(longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+def _racetrack(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+    return RacetrackEnv(config={"observation": {"type": "Kinematics"}, "terminate_off_road": False, **config})
+
+
+def _highway(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
     return HighwayEnv(
         config={
             "observation": {"type": "Kinematics"},
-            "action": _action(longitudinal),
-            "lanes_count": 3,
-            "vehicles_count": 15 if traffic else 0,
-            "duration": duration_s,
+            "lanes_count": spec.lanes_count,
             "offroad_terminal": False,
-            "offscreen_rendering": True,
-            **_TIMING,
+            **config,
         }
     )
 
 
-def _winding(longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
-    return WindingRoadEnv(
-        config={
-            "action": _action(longitudinal),
-            "leading_vehicles": 1 if traffic else 0,
-            "oncoming_vehicles": 3 if traffic else 0,
-            "duration": duration_s,
-            "offscreen_rendering": True,
-            **_TIMING,
-        }
-    )
+def _winding(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+    return WindingRoadEnv(config={"lane_width": spec.lane_width_m, **config})
 
 
-#: Scenario name -> factory(longitudinal, traffic, duration_s) of a highway-env env.
-SCENARIOS: dict[str, Callable[[bool, bool, float], AbstractEnv]] = {
-    "racetrack": _racetrack,
-    "highway": _highway,
-    "winding": _winding,
+#: Scenario name -> its spec (insertion order is the order of help texts and figures).
+SCENARIOS: dict[str, ScenarioSpec] = {
+    "racetrack": ScenarioSpec(
+        name="racetrack",
+        summary="highway-env's curvy two-lane circuit, one other car",
+        factory=_racetrack,
+        lane_width_m=5.0,
+        cruise_speed_m_s=10.0,
+        lanes_count=2,
+        route_is_lap=True,
+        traffic_vehicles={"other_vehicles": 1},
+    ),
+    "highway": ScenarioSpec(
+        name="highway",
+        summary="a straight three-lane motorway with IDM traffic",
+        factory=_highway,
+        lane_width_m=4.0,
+        cruise_speed_m_s=25.0,
+        lanes_count=3,
+        traffic_vehicles={"vehicles_count": 15},
+    ),
+    "winding": ScenarioSpec(
+        name="winding",
+        summary="a two-lane country road generated from the seed",
+        factory=_winding,
+        lane_width_m=3.5,
+        cruise_speed_m_s=15.0,
+        lanes_count=1,
+        traffic_vehicles={"leading_vehicles": 1, "oncoming_vehicles": 3},
+    ),
 }
+
+#: The scenario names, in registry order.
+SCENARIO_NAMES: tuple[str, ...] = tuple(SCENARIOS)
+
+
+def get_scenario(name: str) -> ScenarioSpec:
+    """The spec of scenario ``name``; unknown names are refused with the valid ones
+    listed and the closest one suggested."""
+    return SCENARIOS[check_choice("scenario", name, SCENARIO_NAMES)]
 
 
 def make_highway_env(scenario: str, *, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
     """Create the highway-env environment behind ``scenario`` (a key of :data:`SCENARIOS`)."""
-    return SCENARIOS[scenario](longitudinal, traffic, duration_s)
+    return get_scenario(scenario).make_env(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)

@@ -1,5 +1,6 @@
-"""One closed-loop episode: camera -> (detector) -> controller -> highway-env, scored
-on the mask and on safety.
+"""Run one closed-loop episode and score it on the mask and on safety.
+
+The loop: camera -> (detector) -> controller -> highway-env.
 
 The record it returns (``simroad episode --json``) has these keys:
 
@@ -14,7 +15,9 @@ fnr_frame_mean, ...       ``fpr_frame_mean``: means of the per-frame rates
 iou, f1                   pooled intersection-over-union and F1 of the road class
 collided ... driving_score  safety metrics, see :mod:`simroad.metrics.safety`
 min_ttc_s                 ``null`` when no vehicle ahead was ever closing in
-detect_ms_median          median milliseconds of mask prediction per step
+detect_ms_median          median milliseconds of one driver call per step
+                          (perception and control: the detector's mask
+                          prediction plus the lane keeper, or a custom driver)
 step_ms_median            median milliseconds of one whole policy step (render,
                           weather, perception, control, highway-env)
 wall_s                    wall-clock seconds of the episode
@@ -36,9 +39,12 @@ from typing import Any
 import numpy as np
 
 from simroad._validation import check_choice, check_in_range, check_int_in_range
-from simroad.control.drivers import DRIVER_NAMES, SCENARIO_CONTROL, make_driver
-from simroad.envs import RoadCamEnv
+from simroad.control.drivers import DRIVER_NAMES, make_driver
+from simroad.envs import RoadCamEnv, get_scenario
+from simroad.envs.routes import lap_length_m
+from simroad.experiments.video import EpisodeVideo
 from simroad.filters import FILTER_NAMES, format_filters, parse_filters  # re-exported here for old imports
+from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
 __all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "parse_filters", "run_episode"]
@@ -55,8 +61,10 @@ RECORD_KEYS = (
 
 @dataclass(frozen=True)
 class EpisodeSpec:
-    """What one episode runs. ``route_m`` defaults to :func:`default_route_m`: one
-    racetrack lap or 1 km, shortened to what the step budget can cover."""
+    """What one episode runs. ``route_m`` defaults to :func:`default_route_m`: the
+    scenario's route (:class:`~simroad.envs.ScenarioSpec`: one racetrack lap, else
+    ``route_m``), shortened to what the step budget can cover. The episode's time
+    limit is ``steps`` policy periods of the scenario (at least one, at most 1000 s)."""
 
     scenario: str = "racetrack"
     noise: str = "clear"
@@ -79,10 +87,10 @@ class EpisodeSpec:
             check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
 
 
-def _mask_scorer():
-    from simroad.metrics.mask import MaskScore
-
-    return MaskScore()
+#: Longest episode time limit in simulated s (``EpisodeSpec.steps`` beyond it are cut).
+_MAX_DURATION_S = 1e3
+#: A step budget is expected to cover this fraction of cruise speed x time (route cap).
+_ROUTE_SPEED_FRACTION = 0.8
 
 
 def run_episode(
@@ -107,20 +115,19 @@ def run_episode(
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
     """
     t_start = time.perf_counter()
+    period = get_scenario(spec.scenario).policy_period_s
+    duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)
     env = RoadCamEnv(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, longitudinal=True,
-                     traffic=spec.traffic, duration_s=1e3 if spec.steps * 0.2 > 1e3 else max(0.2, spec.steps * 0.2),
-                     **spec.env_options)  # fmt: skip
+                     traffic=spec.traffic, duration_s=duration_s, **spec.env_options)  # fmt: skip
     pilot = make_driver(driver if driver is not None else spec.driver, env, filters=spec.filters, detector=detector)
     obs, info = env.reset(seed=spec.seed)
     pilot.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
-    masks = _mask_scorer()
+    masks = MaskScore()
     valid = env.camera.ground_valid
     recorder = None
     if video is not None:
-        from simroad.experiments.video import EpisodeVideo
-
         recorder = EpisodeVideo(video, env)
     detect_ms, step_ms = [], []
     steps = 0
@@ -162,29 +169,26 @@ def run_episode(
     return {k: record[k] for k in RECORD_KEYS}
 
 
-def scenario_route_m(env) -> float:
-    """The scenario's route from the ego's start: one lap of the ego's lane ring on the
-    racetrack (following highway-env's lane successors), 1 km elsewhere."""
-    net = env.highway_env.road.network
-    start = env.vehicle.lane_index
-    index, total = start, 0.0
-    for _ in range(200):
-        total += float(net.get_lane(index).length)
-        nxt = net.next_lane(index, position=env.vehicle.position, np_random=np.random.default_rng(0))
-        if nxt is None or nxt[:2] == index[:2]:
-            return 1000.0  # not a loop
-        index = nxt
-        if index == start:
-            return total
-    return 1000.0
+def scenario_route_m(env: RoadCamEnv) -> float:
+    """The scenario's route from the ego's start (:class:`~simroad.envs.ScenarioSpec`):
+    on a lap scenario (the racetrack) one lap of the ego's lane ring, following
+    highway-env's lane successors; else (or if the ring does not close) the spec's
+    ``route_m`` (1 km)."""
+    scenario = get_scenario(env.config.scenario)
+    if scenario.route_is_lap:
+        lap = lap_length_m(env.highway_env.road.network, env.vehicle.lane_index, position=env.vehicle.position)
+        if lap is not None:
+            return lap
+    return scenario.route_m
 
 
 def default_route_m(env, steps: int) -> float:
     """The route an episode is scored against (route completion): the scenario route
-    (:func:`scenario_route_m`), shortened to what 80 % of the scenario's cruise speed
-    covers in ``steps`` policy steps when the step budget cannot cover it."""
-    cruise = SCENARIO_CONTROL[env.config.scenario]["target_speed_m_s"]
-    return min(scenario_route_m(env), 0.8 * cruise * steps * env.dt)
+    (:func:`scenario_route_m`), shortened to what ``_ROUTE_SPEED_FRACTION`` (80 %) of
+    the scenario's cruise speed covers in ``steps`` policy steps when the step budget
+    cannot cover it."""
+    cruise = get_scenario(env.config.scenario).cruise_speed_m_s
+    return min(scenario_route_m(env), _ROUTE_SPEED_FRACTION * cruise * steps * env.dt)
 
 
 def _mask_record(masks) -> dict[str, float]:

@@ -9,9 +9,11 @@ from typing import Any
 
 import cv2
 import numpy as np
+from tqdm import tqdm
 
 from simroad._validation import SimroadError, check_int_in_range
 from simroad.envs import RoadCamEnv
+from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["ensure_writable_dir", "export_frames"]
 
@@ -71,14 +73,9 @@ def export_frames(
     obs, info = env.reset(seed=int(seed))
     cam = env.camera
     frames_meta = []
-    from tqdm import tqdm
-
     for k in tqdm(range(count), disable=not progress, desc="frames", unit="frame"):
         if k > 0:
-            for _ in range(every):
-                obs, _, terminated, truncated, info = env.step(env.autopilot_action())
-                if terminated or truncated:
-                    obs, info = env.reset(seed=int(seed) + k)
+            obs, info = drive_autopilot(env, every, reset_seed=int(seed) + k)
         _write_png(out_dir / f"frame_{k:04d}.png", obs)
         _write_png(out_dir / f"road_{k:04d}.png", info["road_mask"].astype(np.uint8) * 255)
         x, y, h = (float(v) for v in info["pose"])

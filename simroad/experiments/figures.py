@@ -6,6 +6,8 @@ import os
 from pathlib import Path
 
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad.experiments.export import ensure_writable_dir
+from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["camera_figure"]
 
@@ -13,12 +15,10 @@ __all__ = ["camera_figure"]
 def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> Path:
     """One row per scenario: the clean camera frame, the frame with its ground-truth
     road outline, and the bird's-eye view of the same world. Writes a PNG."""
-    import matplotlib
+    import matplotlib  # lazily: selecting the Agg backend must precede pyplot, and only when drawing
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from simroad.experiments.export import ensure_writable_dir
 
     out = Path(out)
     ensure_writable_dir("out", out.parent if str(out.parent) else ".")
@@ -28,8 +28,8 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
     for row, scenario in enumerate(SCENARIO_NAMES):
         env = RoadCamEnv(scenario=scenario, render_mode="rgb_array")
         obs, _ = env.reset(seed=seed + row)
-        for _ in range(steps):
-            obs, *_ = env.step(env.autopilot_action())
+        if steps > 0:
+            obs, _ = drive_autopilot(env, steps)
         panels = (obs, env.render(), env.render_bev(size=(120, 240)))
         titles = (f"{scenario}: camera", "ground-truth road outline", "bird's-eye view")
         for ax, img, title in zip(axes[row], panels, titles):

@@ -9,6 +9,7 @@ import numpy as np
 
 from simroad._validation import check_int_in_range
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["FrameSet", "collect_frames"]
 
@@ -67,11 +68,8 @@ def collect_frames(
                 out.noise_masks.append(info["noise_masks"])
                 out.valid.append(valid)
                 out.source.append((scenario, int(seed), i * every))
-                for _ in range(every):
-                    action = env.autopilot_action()
-                    action[0] = np.clip(action[0] + rng.normal(0.0, steer_noise), -1.0, 1.0)
-                    obs, _, terminated, truncated, info = env.step(action)
-                    if terminated or truncated:
-                        obs, info = env.reset(seed=int(seed) + 10_000 + i)
+                obs, info = drive_autopilot(
+                    env, every, reset_seed=int(seed) + 10_000 + i, rng=rng, steer_noise=steer_noise
+                )
             env.close()
     return out

@@ -1,5 +1,8 @@
-"""Scoring: road-mask metrics (paper eqs. 32-33), pooled and per frame, and driving
-safety from highway-env state."""
+"""Scoring of episodes: road-mask metrics and driving-safety metrics.
+
+Mask metrics follow paper eqs. 32-33, pooled and per frame; safety metrics are
+computed from highway-env's state.
+"""
 
 from __future__ import annotations
 

@@ -12,6 +12,7 @@ import pytest
 
 from simroad.camera import VEHICLE
 from simroad.envs import RoadCamEnv
+from simroad.experiments.rollout import autopilot_env_action
 
 
 def _on_some_lane(network, xy: np.ndarray) -> np.ndarray:
@@ -35,7 +36,7 @@ def test_road_mask_agrees_with_lane_geometry(scenario):
         for step in range(3):
             if step:
                 for _ in range(4):
-                    _obs, _, _term, _trunc, info = env.step(env.autopilot_action())
+                    _obs, _, _term, _trunc, info = env.step(autopilot_env_action(env))
             valid = env.camera.ground_valid & (info["material"] != VEHICLE)
             v, u = np.nonzero(valid)
             pick = rng.choice(len(u), size=400, replace=False)

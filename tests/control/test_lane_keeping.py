@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
-from simroad.control.drivers import SCENARIO_CONTROL, make_driver
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _occlusion_free, _pick_run
-from simroad.envs import RoadCamEnv
+from simroad.control import autopilot_action
+from simroad.control.drivers import make_driver
+from simroad.control.lane_estimate import _occlusion_free, _pick_run
+from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper
+from simroad.envs import RoadCamEnv, get_scenario
 
 
 def test_pick_run_contains_expected_position_and_bridges_slivers():
@@ -66,8 +68,10 @@ def test_read_path_matches_the_true_lane_centre_on_a_curve():
     env = RoadCamEnv(scenario="winding", longitudinal=True, traffic=False)
     _obs, info = env.reset(seed=4)
     for _ in range(25):
-        _obs, _, _, _, info = env.step(np.array([env.autopilot_action()[0], 0.0], dtype=np.float32))
-    ctl = MaskLaneKeeper(env.camera, ControllerConfig(**SCENARIO_CONTROL["winding"]))
+        _obs, _, _, _, info = env.step(
+            np.array([autopilot_action(env.highway_env.road, env.vehicle), 0.0], dtype=np.float32)
+        )
+    ctl = MaskLaneKeeper(env.camera, ControllerConfig.for_scenario(get_scenario("winding")))
     est = ctl.read_path(info["road_mask"])
     assert len(est.x_m) >= 5
     v = env.vehicle
@@ -96,7 +100,7 @@ def test_oracle_keeps_its_lane(scenario, seed, steps):
         lats.append(info["lateral_offset_m"])
         assert info["offroad_distance_m"] == 0.0 and not terminated
     assert math.sqrt(np.mean(np.square(lats))) < 0.3
-    assert info["speed_m_s"] > 0.8 * SCENARIO_CONTROL[scenario]["target_speed_m_s"]
+    assert info["speed_m_s"] > 0.8 * get_scenario(scenario).cruise_speed_m_s
 
 
 def test_controller_slows_down_when_the_road_ends():

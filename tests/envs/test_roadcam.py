@@ -10,6 +10,7 @@ from gymnasium.utils.env_checker import check_env
 import simroad
 from simroad import SimroadError
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad.experiments.rollout import autopilot_env_action
 
 
 @pytest.mark.parametrize("scenario", SCENARIO_NAMES)
@@ -26,7 +27,7 @@ def test_same_seed_identical_frames_and_truth(scenario):
         obs, info = env.reset(seed=seed)
         out = [(obs, info["road_mask"])]
         for _ in range(4):
-            obs, _, _, _, info = env.step(env.autopilot_action())
+            obs, _, _, _, info = env.step(autopilot_env_action(env))
             out.append((obs, info["road_mask"]))
         env.close()
         return out
@@ -77,7 +78,7 @@ def test_autopilot_keeps_the_winding_road():
     env.reset(seed=3)
     offsets = []
     for _ in range(100):
-        _, _, terminated, _truncated, info = env.step(env.autopilot_action())
+        _, _, terminated, _truncated, info = env.step(autopilot_env_action(env))
         offsets.append(abs(info["lateral_offset_m"]))
         assert not terminated
     assert max(offsets) < 0.6
@@ -138,3 +139,29 @@ def test_bad_actions_are_clear_errors():
         env.step(np.array([np.nan], dtype=np.float32))
     with pytest.raises(SimroadError, match="shape"):
         env.step(np.zeros(3, dtype=np.float32))
+
+
+def test_config_and_keywords_together_are_refused():
+    config = simroad.RoadCamConfig(scenario="highway")
+    with pytest.raises(SimroadError, match=r"config.*noise"):
+        RoadCamEnv(config=config, noise="rain")
+    with pytest.raises(SimroadError, match="RoadCamConfig"):
+        RoadCamEnv(config={"scenario": "highway"})
+    env = gym.make(simroad.ENV_ID, config=config)
+    assert env.unwrapped.config is config
+
+
+def test_reset_refuses_options():
+    env = RoadCamEnv(scenario="highway", traffic=False)
+    with pytest.raises(SimroadError, match=r"options.*'map'"):
+        env.reset(seed=0, options={"map": 1})
+    env.reset(seed=0, options={})  # empty options are fine
+
+
+def test_all_state_exists_before_reset():
+    env = RoadCamEnv(scenario="highway")
+    fresh = set(vars(env))
+    env.reset(seed=0)
+    assert set(vars(env)) - fresh <= {"_np_random", "_np_random_seed"}
+    with pytest.raises(SimroadError, match="reset"):
+        RoadCamEnv().render_bev()

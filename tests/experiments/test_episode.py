@@ -117,3 +117,39 @@ def test_requirement_parser():
     ]
     # min_ttc_s is None when nothing ever closed in: that is infinitely safe
     assert check_requirements({"min_ttc_s": None}, [parse_requirement("min_ttc_s>=2", valid_keys=RECORD_KEYS)]) == []
+
+
+def test_route_and_time_limit_come_from_the_scenario_spec():
+    from simroad.envs import RoadCamEnv, get_scenario
+    from simroad.experiments.episode import default_route_m, scenario_route_m
+
+    track = RoadCamEnv(scenario="racetrack", longitudinal=True)
+    track.reset(seed=0)
+    lap = scenario_route_m(track)
+    assert lap != get_scenario("racetrack").route_m and 200.0 < lap < 2000.0  # one lap, measured
+    assert default_route_m(track, 10_000) == lap
+    road = RoadCamEnv(scenario="winding", longitudinal=True)
+    road.reset(seed=0)
+    spec = get_scenario("winding")
+    assert scenario_route_m(road) == spec.route_m == 1000.0
+    assert default_route_m(road, 10) == pytest.approx(0.8 * spec.cruise_speed_m_s * 10 * spec.policy_period_s)
+
+
+def test_autopilot_rollout_helper_matches_stepping_by_hand():
+    from simroad.control import autopilot_action
+    from simroad.envs import RoadCamEnv
+    from simroad.experiments.rollout import autopilot_env_action, drive_autopilot
+
+    a, b = RoadCamEnv(scenario="winding", longitudinal=True), RoadCamEnv(scenario="winding", longitudinal=True)
+    a.reset(seed=2)
+    b.reset(seed=2)
+    action = autopilot_env_action(a)
+    assert action.dtype == np.float32 and action.shape == (2,) and action[1] == 0.0
+    assert action[0] == np.float32(autopilot_action(a.highway_env.road, a.vehicle))
+    obs_a, info_a = drive_autopilot(a, 3)
+    for _ in range(3):
+        obs_b, _, _, _, info_b = b.step(autopilot_env_action(b))
+    np.testing.assert_array_equal(obs_a, obs_b)
+    assert info_a["pose"].tolist() == info_b["pose"].tolist()
+    with pytest.raises(SimroadError, match="steps"):
+        drive_autopilot(a, 0)
