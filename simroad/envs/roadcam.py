@@ -108,7 +108,9 @@ class RoadCamEnv(gym.Env):
         if self.config.noise != "clear":
             from simroad.noise import make_weather
 
-            self.weather = make_weather(self.config.noise, self.config.severity, params=self.config.noise_params)
+            self.weather = make_weather(
+                self.config.noise, severity=self.config.severity, params=self.config.noise_params
+            )
             self.weather.reset(self._weather_rng, world=self.world)
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0

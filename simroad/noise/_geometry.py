@@ -20,7 +20,15 @@ import numpy as np
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 
-__all__ = ["ViewGeometry", "ego_rotation", "ego_to_world", "fresnel_unpolarized", "view_geometry"]
+__all__ = [
+    "ViewGeometry",
+    "draw_sun",
+    "ego_rotation",
+    "ego_to_world",
+    "fresnel_unpolarized",
+    "sun_direction_ego",
+    "view_geometry",
+]
 
 
 def fresnel_unpolarized(cos_i: np.ndarray, n: float) -> np.ndarray:
@@ -168,3 +176,24 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
 def view_geometry(camera: PinholeCamera) -> ViewGeometry:
     """The cached :class:`ViewGeometry` of a camera's mounting."""
     return _geometry_for(camera.config)
+
+
+def sun_direction_ego(azimuth_rad: float, elevation_rad: float, heading_rad: float) -> np.ndarray:
+    """Unit vector towards the sun in the ego frame (X forward, Y right, Z down).
+
+    ``azimuth_rad`` is the world heading angle of the sun's horizontal direction
+    (0 = world +x, pi/2 = world +y, the same convention as a vehicle heading).
+    """
+    phi = azimuth_rad - heading_rad
+    ce = math.cos(elevation_rad)
+    return np.array([ce * math.cos(phi), ce * math.sin(phi), -math.sin(elevation_rad)])
+
+
+def draw_sun(rng: np.random.Generator, azimuth_deg: float | None, elevation_deg: float) -> tuple[float, float]:
+    """The episode's sun as ``(azimuth, elevation)`` in radians.
+
+    ``azimuth_deg`` is a world heading in degrees, or ``None`` to draw one uniformly
+    from ``rng`` (one draw); ``elevation_deg`` is above the horizon, degrees.
+    """
+    az = rng.uniform(0.0, 2 * math.pi) if azimuth_deg is None else math.radians(azimuth_deg)
+    return (az, math.radians(elevation_deg))
