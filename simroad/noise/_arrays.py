@@ -26,7 +26,7 @@ def fast_exp(x: np.ndarray) -> np.ndarray:
     Below about -87 the result is a float32 denormal, which costs the CPU a
     hundred times more per element; ``exp(-80)`` ≈ 2e-35 is zero for any pixel.
     """
-    return cv2.exp(cv2.max(np.asarray(x, dtype=np.float32), -80.0))
+    return cv2.exp(cv2.max(np.asarray(x, dtype=np.float32), -80.0))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
 
 
 def rgb_scalar(value: np.ndarray | float) -> tuple[float, float, float, float]:

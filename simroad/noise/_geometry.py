@@ -161,8 +161,8 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
         cy=float(K[1, 2]),
         height_m=config.mount_height_m,
         forward_m=config.forward_offset_m,
-        ray_planes=tuple(np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3)),
-        ray_planes_half=tuple(np.ascontiguousarray(rays[::2, ::2, k], dtype=np.float32) for k in range(3)),
+        ray_planes=_planes(rays),
+        ray_planes_half=_planes(rays[::2, ::2]),
         ground=ground,
         fresnel_water=fres.astype(np.float32),
         mirror_map=(mu.astype(np.float32), mv.astype(np.float32)),
@@ -171,6 +171,12 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
         half_fov_x=math.atan((W / 2) / K[0, 0]),
         half_fov_y=math.atan((H / 2) / K[1, 1]),
     )
+
+
+def _planes(rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The x, y and z components of (H, W, 3) rays as contiguous float32 planes."""
+    x, y, z = (np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3))
+    return x, y, z
 
 
 def view_geometry(camera: PinholeCamera) -> ViewGeometry:

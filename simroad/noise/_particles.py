@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from simroad.camera.geometry import CameraConfig
 from simroad.noise._geometry import ViewGeometry, view_geometry
 from simroad.noise._particle_field import (
     ParticleField,
@@ -47,7 +48,7 @@ class ParticleModel(NoiseModel):
 
     def _on_reset(self) -> None:
         self.field: ParticleField | None = None
-        self._field_config = None
+        self._field_config: CameraConfig | None = None
 
     def _sample(self, geom: ViewGeometry) -> ParticleField:  # pragma: no cover - abstract
         raise NotImplementedError
@@ -63,15 +64,22 @@ class ParticleModel(NoiseModel):
             return
         p, ctx = self.params, state.ctx
         geom = view_geometry(state.camera)
-        motion = dict(
-            wind_ego=wind_in_ego(p.wind_m_s, p.wind_dir_deg, state.camera.pose[2]),
-            speed=ctx.ego_speed,
-            yaw_rate=ctx.ego_yaw_rate,
-        )
+        wind = wind_in_ego(p.wind_m_s, p.wind_dir_deg, state.camera.pose[2])
+        speed, yaw_rate = ctx.ego_speed, ctx.ego_yaw_rate
         if self.field is None or self._field_config != geom.config:
             self.field = self._sample(geom)
             self._field_config = geom.config
         else:
-            advance(self.field, ctx.dt, forward_m=geom.forward_m, time_s=ctx.time_s, **motion)
-        seg = streaks(self.field, geom, exposure_s=p.exposure_s, time_s=ctx.time_s, **motion)
+            advance(
+                self.field,
+                ctx.dt,
+                wind_ego=wind,
+                speed=speed,
+                yaw_rate=yaw_rate,
+                forward_m=geom.forward_m,
+                time_s=ctx.time_s,
+            )
+        seg = streaks(
+            self.field, geom, wind_ego=wind, speed=speed, yaw_rate=yaw_rate, exposure_s=p.exposure_s, time_s=ctx.time_s
+        )
         blend(state.lin, splat_streaks(*seg, state.shape), self._radiance(state))

@@ -17,10 +17,12 @@ from simroad.noise._arrays import rgb_scalar
 from simroad.noise._geometry import ViewGeometry
 from simroad.noise._particle_field import ParticleField, particle_velocity, relative_velocity
 
-__all__ = ["blend", "splat_streaks", "streaks"]
+__all__ = ["Streaks", "blend", "splat_streaks", "streaks"]
 
 _Z_NEAR_M = 0.05
 _MAX_WIDTH_PX = 15
+Streaks = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+"""``(u0, v0, u1, v1, width, beta)`` of :func:`streaks`, one entry per streak."""
 _BETA_MIN = 2e-3  # below a tenth of a grey level on any background: not drawn
 
 
@@ -60,7 +62,7 @@ def streaks(
     yaw_rate: float,
     exposure_s: float,
     time_s: float,
-) -> tuple[np.ndarray, ...]:
+) -> Streaks:
     """Image streaks of the particles during the exposure ending now.
 
     Returns
@@ -73,7 +75,8 @@ def streaks(
         Per-pixel blending weight β of each streak (paper eq. 19).
     """
     if len(field) == 0:
-        return (np.zeros(0),) * 4 + (np.zeros(0, dtype=np.int64), np.zeros(0))
+        e = np.zeros(0)
+        return e, e, e, e, np.zeros(0, dtype=np.int64), e
     vmax = abs(speed) + float(np.hypot(*wind_ego)) + field.max_speed + abs(yaw_rate) * 30
     idx = _frustum_candidates(field, geom, margin_m=vmax * exposure_s + 0.05)
     end = field.pos[idx]
@@ -157,9 +160,9 @@ def splat_streaks(
     iu = np.rint(u0[owner] + t * du[owner]).astype(np.int64)
     iv = np.rint(v0[owner] + t * dv[owner]).astype(np.int64)
     inside = (iu >= 0) & (iu < W) & (iv >= 0) & (iv < H)
-    acc = np.bincount((iv * W + iu)[inside], weights=beta[owner][inside], minlength=H * W)
-    acc = acc.astype(np.float32).reshape(H, W)
-    return cv2.min(acc, 1.0, dst=acc)
+    sums = np.bincount((iv * W + iu)[inside], weights=beta[owner][inside], minlength=H * W)
+    acc = sums.astype(np.float32).reshape(H, W)
+    return cv2.min(acc, 1.0, dst=acc)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
 
 
 def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:
@@ -174,6 +177,6 @@ def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:
     radiance : ndarray (3,)
         Particle radiance I_E (linear).
     """
-    d = cv2.subtract(lin, rgb_scalar(radiance))
+    d = cv2.subtract(lin, rgb_scalar(radiance))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
     d *= cv2.cvtColor(beta, cv2.COLOR_GRAY2RGB)
     lin -= d

@@ -58,7 +58,8 @@ def linear_to_srgb(lin: np.ndarray, dtype: np.dtype | type = np.uint8) -> np.nda
     -------
     ndarray, (H, W, 3), of ``dtype``
     """
-    x = cv2.log(cv2.max(lin, 1e-7))  # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
+    # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
+    x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
     x *= np.float32(1.0 / GAMMA)
     x = cv2.exp(x)
     if np.dtype(dtype) == np.uint8:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import warnings
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -51,7 +51,7 @@ def sample_scene(seed: int = 0) -> tuple[Frame, PinholeCamera, WorldRaster]:
     try:
         env.reset(seed=seed)
         rng = np.random.default_rng(seed)
-        world = WorldRaster(env.unwrapped.road.network, rng)
+        world = WorldRaster(cast(Any, env.unwrapped).road.network, rng)
     finally:
         env.close()
     cam = PinholeCamera(CameraConfig(width=320, height=180))

@@ -182,13 +182,13 @@ def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M) -> n
             keep.append(k)
     if not polys:
         return np.zeros((H, W), dtype=np.float32)
-    keep = np.asarray(keep)
+    kept = np.asarray(keep)
     sizes = np.array([len(p) for p in polys])
     uv = camera.ground_to_image(np.concatenate(polys))
-    b = shadows.bbox[keep]
+    b = shadows.bbox[kept]
     centre = 0.5 * (b[:, :2] + b[:, 2:])
     dist = np.maximum(np.hypot(*(centre - c).T), 2.0)
-    wx = shadows.penumbra_m[keep] * camera.K[0, 0] / dist
+    wx = shadows.penumbra_m[kept] * camera.K[0, 0] / dist
     kx, ky = _kernel(wx), _kernel(wx * cfg.mount_height_m / dist)
     pts = np.round(np.clip(uv, -1e5, 1e5) * 16).astype(np.int32)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -293,6 +293,7 @@ class ShadowModel(NoiseModel):
 
     def illumination(self, state: FrameState) -> None:
         cover = self._coverage
+        assert cover is not None  # set by prepare(), which runs before every frame's stages
         r = state.ground_rows
         t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
         k = shadow_factor(self.params.sun_sky_ratio_rgb, self.sun[1], t_sun)

@@ -249,7 +249,7 @@ class SnowModel(pt.ParticleModel):
         c = _cover_map(view_geometry(state.camera), r, state.camera.pose, p.settle, self._lattice)
         c *= where
         lin = state.lin[r]
-        d = cv2.subtract(lin, rgb_scalar(SNOW_RGB))
+        d = cv2.subtract(lin, rgb_scalar(SNOW_RGB))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
         d *= gray3(c)
         lin -= d
 
