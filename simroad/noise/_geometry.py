@@ -19,8 +19,13 @@ import cv2
 import numpy as np
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
+from simroad.noise.model import Limit
+
+SUN_AZIMUTH_LIMIT = Limit(-360.0, 360.0, "degrees", optional=True)
+"""Valid sun azimuths (world headings); ``None`` draws one per episode (:func:`draw_sun`)."""
 
 __all__ = [
+    "SUN_AZIMUTH_LIMIT",
     "ViewGeometry",
     "draw_sun",
     "ego_rotation",

@@ -7,6 +7,9 @@ every frame; its streaks during the exposure are blended into the frame by eq. 1
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from types import MappingProxyType
+
 import numpy as np
 
 from simroad.camera.geometry import CameraConfig
@@ -21,9 +24,10 @@ from simroad.noise._particle_field import (
 )
 from simroad.noise._streaks import blend, splat_streaks, streaks
 from simroad.noise.context import FrameState
-from simroad.noise.model import NoiseModel
+from simroad.noise.model import Limit, NoiseModel
 
 __all__ = [
+    "PARTICLE_LIMITS",
     "ParticleField",
     "ParticleModel",
     "advance",
@@ -36,13 +40,24 @@ __all__ = [
     "wind_in_ego",
 ]
 
+PARTICLE_LIMITS: Mapping[str, Limit] = MappingProxyType(
+    {
+        "wind_m_s": Limit(0.0, 40.0, "m/s"),
+        "wind_dir_deg": Limit(-360.0, 360.0, "degrees"),
+        "exposure_s": Limit(0.0, 0.1, "s", low_inclusive=False),
+        "max_particles": Limit(0, 200000, integer=True),
+    }
+)
+"""Limits of the fields every particle model's params carry (rain's and snow's)."""
+
 
 class ParticleModel(NoiseModel):
     """The ``particles`` stage shared by rain and snow.
 
     Subclasses provide ``_sample(geom) -> ParticleField``, ``_radiance(state)`` (the
     particles' linear RGB, (3,)) and ``_has_particles()``; their params carry
-    ``wind_m_s``, ``wind_dir_deg`` and ``exposure_s``. The field is drawn at the first
+    ``wind_m_s``, ``wind_dir_deg``, ``exposure_s`` and ``max_particles``, limited by
+    :data:`PARTICLE_LIMITS`. The field is drawn at the first
     frame (from the model's generator) and then advanced by ``ctx.dt`` every frame.
     """
 

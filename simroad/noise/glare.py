@@ -51,7 +51,7 @@ import numpy as np
 from simroad._validation import check_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
 from simroad.noise._arrays import fast_exp, material_weights
-from simroad.noise._geometry import draw_sun, sun_direction_ego, view_geometry
+from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, sun_direction_ego, view_geometry
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params
 
@@ -153,7 +153,7 @@ class GlareParams(Params):
     """
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {
-        "sun_azimuth_deg": Limit(-360.0, 360.0, "degrees", optional=True),
+        "sun_azimuth_deg": SUN_AZIMUTH_LIMIT,
         "sun_elevation_deg": Limit(0.5, 89.0, "degrees"),
         "sun_sky_ratio": Limit(0.0, 50.0),
         "roughness": Limit(0.02, 1.0),

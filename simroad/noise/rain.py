@@ -205,14 +205,11 @@ class RainParams(Params):
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {
         "rate_mm_h": Limit(0.0, 300.0, "mm/h"),
-        "wind_m_s": Limit(0.0, 40.0, "m/s"),
-        "wind_dir_deg": Limit(-360.0, 360.0, "degrees"),
-        "exposure_s": Limit(0.0, 0.1, "s", low_inclusive=False),
         "wetness": Limit(0.0, 1.0),
         "water_film": Limit(0.0, 1.0),
         "haze_scale": Limit(0.0, 100.0),
         "airlight": Limit(0.0, 1.0),
-        "max_particles": Limit(0, 200000, integer=True),
+        **pt.PARTICLE_LIMITS,
     }
 
     rate_mm_h: float = 25.0

@@ -50,7 +50,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
-from simroad.noise._geometry import draw_sun, ego_to_world, view_geometry
+from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
 from simroad.noise._occluders import Occluders, RoadIndex, Shadows, place_cell, prism_shadows
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params
@@ -96,7 +96,7 @@ class ShadowParams(Params):
     """
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {
-        "sun_azimuth_deg": Limit(-360.0, 360.0, "degrees", optional=True),
+        "sun_azimuth_deg": SUN_AZIMUTH_LIMIT,
         "sun_elevation_deg": Limit(2.0, 89.0, "degrees"),
         "sun_sky_ratio_rgb": Limit(0.5, 50.0, length=3),
         "occluders_per_100m": Limit(0.0, 100.0),

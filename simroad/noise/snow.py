@@ -145,15 +145,12 @@ class SnowParams(Params):
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {
         "flake_density_m3": Limit(0.0, 20000.0, "1/m^3"),
-        "wind_m_s": Limit(0.0, 40.0, "m/s"),
-        "wind_dir_deg": Limit(-360.0, 360.0, "degrees"),
         "drift_m_s": Limit(0.0, 3.0, "m/s"),
-        "exposure_s": Limit(0.0, 0.1, "s", low_inclusive=False),
         "flake_albedo": Limit(0.0, 1.0),
         "settle": Limit(0.0, 1.0),
         "airlight": Limit(0.0, 1.0),
         "haze_scale": Limit(0.0, 100.0),
-        "max_particles": Limit(0, 200000, integer=True),
+        **pt.PARTICLE_LIMITS,
     }
 
     flake_density_m3: float = 1000.0
