@@ -18,7 +18,7 @@ import numpy as np
 from _harness import interleaved, one_core, table
 
 from simroad.noise import NoiseContext, make_weather
-from simroad.noise.gallery import gallery_frame
+from simroad.noise.scene import SCENE_EGO_SPEED_M_S, sample_scene
 
 TARGET_MS = 2.0
 SEVERITIES = (0.5, 1.0)
@@ -53,9 +53,14 @@ def _simroad_step(weather, frame, ctx_kw: dict):
 def main(repeats: int = 200) -> dict[str, dict[str, np.ndarray]]:
     """Print one table per noise; return the raw timings (seconds per call)."""
     one_core()
-    frame, cam, world = gallery_frame(seed=0)
+    frame, cam, world = sample_scene(seed=0)
     ctx_kw = dict(
-        camera=cam, depth=frame.depth, material=frame.material, vehicles=frame.vehicles, ego_speed=15.0, dt=1 / 15
+        camera=cam,
+        depth=frame.depth,
+        material=frame.material,
+        vehicles=frame.vehicles,
+        ego_speed=SCENE_EGO_SPEED_M_S,
+        dt=1 / 15,
     )
     alb = _albumentations()
     results = {}

@@ -33,20 +33,21 @@ See ``docs/weather.md`` for the physics and the references.
 
 from __future__ import annotations
 
-from simroad.noise.base import (
-    GAMMA,
-    MASK_THRESHOLD,
-    STAGES,
-    NoiseContext,
-    NoiseModel,
-    change_mask,
-    flat_ground_camera,
-    linear_to_srgb,
-    srgb_to_linear,
+from simroad.noise.compose import (
+    MODELS,
+    NOISE_NAMES,
+    NoiseParams,
+    Weather,
+    apply_noise,
+    check_noise_params,
+    make_weather,
+    parse_noise,
 )
-from simroad.noise.compose import MODELS, NOISE_NAMES, Weather, apply_noise, make_weather, parse_noise
+from simroad.noise.context import NoiseContext, flat_ground_camera
 from simroad.noise.fog import FogModel, FogParams
 from simroad.noise.glare import GlareModel, GlareParams
+from simroad.noise.model import STAGES, Limit, NoiseModel, NoiseResult, Params
+from simroad.noise.radiometry import GAMMA, MASK_THRESHOLD, change_mask, linear_to_srgb, srgb_to_linear
 from simroad.noise.rain import RainModel, RainParams
 from simroad.noise.shadow import ShadowModel, ShadowParams
 from simroad.noise.snow import SnowModel, SnowParams
@@ -61,8 +62,12 @@ __all__ = [
     "FogParams",
     "GlareModel",
     "GlareParams",
+    "Limit",
     "NoiseContext",
     "NoiseModel",
+    "NoiseParams",
+    "NoiseResult",
+    "Params",
     "RainModel",
     "RainParams",
     "ShadowModel",
@@ -72,6 +77,7 @@ __all__ = [
     "Weather",
     "apply_noise",
     "change_mask",
+    "check_noise_params",
     "flat_ground_camera",
     "linear_to_srgb",
     "make_weather",

@@ -19,8 +19,21 @@ import cv2
 import numpy as np
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
+from simroad.noise.model import Limit
 
-__all__ = ["ViewGeometry", "ego_rotation", "ego_to_world", "fresnel_unpolarized", "view_geometry"]
+SUN_AZIMUTH_LIMIT = Limit(-360.0, 360.0, "degrees", optional=True)
+"""Valid sun azimuths (world headings); ``None`` draws one per episode (:func:`draw_sun`)."""
+
+__all__ = [
+    "SUN_AZIMUTH_LIMIT",
+    "ViewGeometry",
+    "draw_sun",
+    "ego_rotation",
+    "ego_to_world",
+    "fresnel_unpolarized",
+    "sun_direction_ego",
+    "view_geometry",
+]
 
 
 def fresnel_unpolarized(cos_i: np.ndarray, n: float) -> np.ndarray:
@@ -153,8 +166,8 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
         cy=float(K[1, 2]),
         height_m=config.mount_height_m,
         forward_m=config.forward_offset_m,
-        ray_planes=tuple(np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3)),
-        ray_planes_half=tuple(np.ascontiguousarray(rays[::2, ::2, k], dtype=np.float32) for k in range(3)),
+        ray_planes=_planes(rays),
+        ray_planes_half=_planes(rays[::2, ::2]),
         ground=ground,
         fresnel_water=fres.astype(np.float32),
         mirror_map=(mu.astype(np.float32), mv.astype(np.float32)),
@@ -165,6 +178,33 @@ def _geometry_for(config: CameraConfig) -> ViewGeometry:
     )
 
 
+def _planes(rays: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The x, y and z components of (H, W, 3) rays as contiguous float32 planes."""
+    x, y, z = (np.ascontiguousarray(rays[..., k], dtype=np.float32) for k in range(3))
+    return x, y, z
+
+
 def view_geometry(camera: PinholeCamera) -> ViewGeometry:
     """The cached :class:`ViewGeometry` of a camera's mounting."""
     return _geometry_for(camera.config)
+
+
+def sun_direction_ego(azimuth_rad: float, elevation_rad: float, heading_rad: float) -> np.ndarray:
+    """Unit vector towards the sun in the ego frame (X forward, Y right, Z down).
+
+    ``azimuth_rad`` is the world heading angle of the sun's horizontal direction
+    (0 = world +x, pi/2 = world +y, the same convention as a vehicle heading).
+    """
+    phi = azimuth_rad - heading_rad
+    ce = math.cos(elevation_rad)
+    return np.array([ce * math.cos(phi), ce * math.sin(phi), -math.sin(elevation_rad)])
+
+
+def draw_sun(rng: np.random.Generator, azimuth_deg: float | None, elevation_deg: float) -> tuple[float, float]:
+    """The episode's sun as ``(azimuth, elevation)`` in radians.
+
+    ``azimuth_deg`` is a world heading in degrees, or ``None`` to draw one uniformly
+    from ``rng`` (one draw); ``elevation_deg`` is above the horizon, degrees.
+    """
+    az = rng.uniform(0.0, 2 * math.pi) if azimuth_deg is None else math.radians(azimuth_deg)
+    return (az, math.radians(elevation_deg))

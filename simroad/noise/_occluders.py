@@ -127,15 +127,17 @@ class RoadIndex:
     def __init__(self, shapes=None, shoulder_m: float = 1.0) -> None:
         self.straight = shapes is None
         self.shoulder_m = float(shoulder_m)
-        self.contours, self.bboxes, self.centres = [], [], []
+        self.contours: list[np.ndarray] = []
+        self.centres: list[np.ndarray] = []
+        boxes: list[tuple[float, float, float, float]] = []
         for sh in shapes or []:
             surf = np.asarray(sh.surface, dtype=float)
             self.contours.append(surf.astype(np.float32).reshape(-1, 1, 2))
             lo, hi = surf.min(axis=0) - self.shoulder_m, surf.max(axis=0) + self.shoulder_m
-            self.bboxes.append((lo[0], lo[1], hi[0], hi[1]))
+            boxes.append((lo[0], lo[1], hi[0], hi[1]))
             half = len(surf) // 2
             self.centres.append(0.5 * (surf[:half] + surf[::-1][:half]))
-        self.bboxes = np.asarray(self.bboxes, dtype=float).reshape(-1, 4)
+        self.bboxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
 
     def distance(self, pts: np.ndarray, reach: float) -> np.ndarray:
         """Distance (m) from points (N, 2) to the road's shoulder edge; ``-1`` on the
@@ -255,15 +257,20 @@ def place_cell(
     for k in range(n):
         placed = _roadside(KINDS[kind[k]], pts[k], dims[k], dist[k])
         if placed is not None:
-            kinds.append(KINDS[kind[k]]), fps.append(placed[0]), z0.append(0.0), z1.append(placed[1])
+            kinds.append(KINDS[kind[k]])
+            fps.append(placed[0])
+            z0.append(0.0)
+            z1.append(placed[1])
             if placed[2] is not None:
                 trees.append(placed[2])
     if overpass_per_km > 0 and rng.random() < min(1.0, overpass_per_km * (x1 - x0) / 1000.0):
         hit = road.crossing_in(box, rng)
         if hit is not None:
             depth, bottom = 8.0 + 6.0 * rng.random(), 5.0 + 1.5 * rng.random()
-            kinds.append("overpass"), fps.append(_rect(hit[0], hit[1], depth, 36.0))
-            z0.append(bottom), z1.append(bottom + 1.2)
+            kinds.append("overpass")
+            fps.append(_rect(hit[0], hit[1], depth, 36.0))
+            z0.append(bottom)
+            z1.append(bottom + 1.2)
     return Occluders(
         kinds,
         fps,

@@ -4,7 +4,7 @@
 compositions joined by ``+`` (``"rain+glare"``, ``"snow+shadow"``). Names may come in
 any order and are kept in the canonical order of :data:`NOISE_NAMES`; duplicates and
 ``"clear"`` inside a composition are rejected. Whatever the order of the names, the
-models act in physical order, stage by stage (:data:`simroad.noise.base.STAGES`):
+models act in physical order, stage by stage (:data:`simroad.noise.model.STAGES`):
 the surface first (wet road, settled snow, shadows, specular glare), then the
 atmosphere (haze, fog), then the particles nearest the camera, then the lens (veil,
 bloom) and the sensor's saturation.
@@ -12,23 +12,40 @@ bloom) and the sensor's saturation.
 Composed models share one world: the rain's water film feeds the glare's wet lobe,
 fog dims the sun for shadows and glare, shadows block the glare's specular lobe, and
 ``"shadow+glare"`` casts the shadows with the glare's sun.
+
+``severity`` is keyword-only in every entry point (:func:`make_weather`,
+:func:`apply_noise`, :class:`Weather`), and every ``apply`` returns a
+:data:`~simroad.noise.model.NoiseResult`, ``(noisy, masks)`` with ``masks`` a dict
+noise name -> bool (H, W).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range, normalize_rng
-from simroad.noise.base import NoiseContext, NoiseModel, Params, run_models
+from simroad.camera.geometry import PinholeCamera
+from simroad.noise.context import NoiseContext
 from simroad.noise.fog import FogModel
 from simroad.noise.glare import GlareModel
+from simroad.noise.model import NoiseModel, NoiseResult, Params, run_models
 from simroad.noise.rain import RainModel
 from simroad.noise.shadow import ShadowModel
 from simroad.noise.snow import SnowModel
 
-__all__ = ["MODELS", "NOISE_NAMES", "Weather", "apply_noise", "make_weather", "parse_noise"]
+__all__ = [
+    "MODELS",
+    "NOISE_NAMES",
+    "NoiseParams",
+    "Weather",
+    "apply_noise",
+    "check_noise_params",
+    "make_weather",
+    "parse_noise",
+]
 
 NOISE_NAMES = ("clear", "rain", "snow", "shadow", "glare", "fog")
 MODELS: dict[str, type[NoiseModel]] = {
@@ -38,6 +55,9 @@ MODELS: dict[str, type[NoiseModel]] = {
     "glare": GlareModel,
     "fog": FogModel,
 }
+
+NoiseParams = Mapping[str, Params]
+"""Physical parameters per noise: noise name -> that noise's Params (e.g. ``RainParams``)."""
 
 
 def parse_noise(spec: str) -> tuple[str, ...]:
@@ -73,6 +93,15 @@ class Weather:
     Build with :func:`make_weather`; call :meth:`reset` at every episode start and
     :meth:`apply` once per frame, in order (rain and snow move between frames).
 
+    Parameters
+    ----------
+    names : tuple of str
+        Noise names in canonical order (see :func:`parse_noise`).
+    severity : float
+        In [0, 1], keyword-only; mapped to each model's parameters.
+    params : NoiseParams, optional
+        Physical parameters that replace the severity mapping for some noises.
+
     Attributes
     ----------
     names : tuple of str
@@ -81,12 +110,12 @@ class Weather:
     models : dict str -> NoiseModel
     """
 
-    def __init__(self, names: tuple[str, ...], severity: float, params: Mapping[str, Params] | None = None) -> None:
+    def __init__(self, names: tuple[str, ...], *, severity: float, params: NoiseParams | None = None) -> None:
         self.names = tuple(names)
         self.severity = check_in_range("severity", severity, 0.0, 1.0)
-        params = _check_params(params, self.names)
-        self.models = {
-            n: MODELS[n](params[n] if n in params else MODELS[n].params_type.from_severity(self.severity))
+        given = check_noise_params(params, self.names)
+        self.models: dict[str, NoiseModel] = {
+            n: MODELS[n](given[n] if n in given else MODELS[n].params_type.from_severity(self.severity))
             for n in self.names
         }
 
@@ -98,16 +127,17 @@ class Weather:
     def __repr__(self) -> str:
         return f"Weather({self.spec!r}, severity={self.severity:g})"
 
-    def reset(self, rng: np.random.Generator | int, *, world=None) -> None:
+    def reset(self, rng: np.random.Generator | int, *, world: Any = None) -> None:
         """Start an episode: every model draws its state from ``rng`` (in canonical
         order); ``world`` is the episode's WorldRaster, or ``None`` outside the env."""
         rng = normalize_rng(rng)
         for m in self.models.values():
             m.reset(rng, world=world)
-        if "shadow" in self.models and "glare" in self.models:
-            self.models["shadow"].set_sun(*self.models["glare"].sun)
+        shadow, glare = self.models.get("shadow"), self.models.get("glare")
+        if isinstance(shadow, ShadowModel) and isinstance(glare, GlareModel):
+            shadow.set_sun(*glare.sun)
 
-    def apply(self, image: np.ndarray, ctx: NoiseContext | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    def apply(self, image: np.ndarray, ctx: NoiseContext | None = None) -> NoiseResult:
         """Spoil one frame.
 
         Parameters
@@ -122,19 +152,41 @@ class Weather:
         noisy : ndarray, same shape and dtype as ``image``
         masks : dict str -> ndarray bool (H, W)
             Per active noise, the pixels it changed by at least
-            :data:`~simroad.noise.base.MASK_THRESHOLD` grey levels on any channel.
+            :data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels on any channel.
         """
         return run_models(list(self.models.values()), image, ctx)
 
 
-def _check_params(params, names: tuple[str, ...]) -> dict[str, Params]:
+def check_noise_params(params: Any, names: tuple[str, ...] | None = None) -> dict[str, Params]:
+    """Validate physical parameters per noise and return them as a dict.
+
+    Parameters
+    ----------
+    params : NoiseParams or None
+        A mapping noise name -> that noise's Params (``{"rain": RainParams(...)}``);
+        ``None`` is no parameters.
+    names : tuple of str, optional
+        The weather's active noises (from :func:`parse_noise`): every key must be one
+        of them. ``None``: any noise name of :data:`MODELS`.
+
+    Returns
+    -------
+    dict str -> Params
+
+    Raises
+    ------
+    SimroadError
+        If ``params`` is not a mapping, a key is not a (active) noise name, or a value
+        is not that noise's Params class.
+    """
     if params is None:
         return {}
     if not isinstance(params, Mapping):
         raise SimroadError(f"params: expected a dict noise name -> Params, got {type(params).__name__}.")
+    valid = tuple(MODELS) if names is None else names
     out = {}
     for key, value in params.items():
-        check_choice("params key", key, names or ("(none: the weather is 'clear')",))
+        check_choice("params key", key, valid or ("(none: the weather is 'clear')",))
         want = MODELS[key].params_type
         if not isinstance(value, want):
             raise SimroadError(f"params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")
@@ -142,7 +194,7 @@ def _check_params(params, names: tuple[str, ...]) -> dict[str, Params]:
     return out
 
 
-def make_weather(spec: str, severity: float = 0.5, params: Mapping[str, Params] | None = None) -> Weather:
+def make_weather(spec: str, *, severity: float = 0.5, params: NoiseParams | None = None) -> Weather:
     """Build the weather for a spec string.
 
     Parameters
@@ -150,19 +202,24 @@ def make_weather(spec: str, severity: float = 0.5, params: Mapping[str, Params] 
     spec : str
         ``"clear"``, a noise name, or names joined by ``+`` (see :data:`NOISE_NAMES`).
     severity : float
-        In [0, 1]; mapped to physical parameters by each model's
+        In [0, 1], keyword-only; mapped to physical parameters by each model's
         ``Params.from_severity`` (tables in the model modules and docs/weather.md).
         0 leaves frames bit-identical.
-    params : dict str -> Params, optional
+    params : NoiseParams, optional
         Physical parameters that replace the severity mapping for some noises,
-        e.g. ``{"rain": RainParams(rate_mm_h=50)}``.
+        e.g. ``{"rain": RainParams(rate_mm_h=50)}`` (checked by
+        :func:`check_noise_params`).
+
+    Returns
+    -------
+    Weather
 
     Examples
     --------
     >>> weather = make_weather("rain+glare", severity=0.7)
     >>> weather.reset(np.random.default_rng(0))
     """
-    return Weather(parse_noise(spec), severity, params)
+    return Weather(parse_noise(spec), severity=severity, params=params)
 
 
 def apply_noise(
@@ -171,22 +228,41 @@ def apply_noise(
     *,
     severity: float = 0.5,
     rng: np.random.Generator | int,
-    camera=None,
+    camera: PinholeCamera | None = None,
     depth: np.ndarray | None = None,
     material: np.ndarray | None = None,
-    params: Mapping[str, Params] | None = None,
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    params: NoiseParams | None = None,
+) -> NoiseResult:
     """Spoil a single image (a rendered frame or a photograph).
 
     Without ``camera`` the image is taken as seen by the default dashboard camera
-    over flat ground (:func:`~simroad.noise.base.flat_ground_camera`), and without
+    over flat ground (:func:`~simroad.noise.context.flat_ground_camera`), and without
     ``depth`` the camera's flat-ground depth is used.
+
+    Parameters
+    ----------
+    image : ndarray uint8 (H, W, 3), or float32/float64 in [0, 1]
+        Never modified.
+    spec : str
+        Weather spec (see :func:`make_weather`).
+    severity : float
+        In [0, 1].
+    rng : numpy.random.Generator or int
+        Required: the source of every random draw.
+    camera : PinholeCamera, optional
+        With the image's pose set.
+    depth : ndarray float32 (H, W), optional
+        Ground distance in m, ``inf`` for the sky.
+    material : ndarray uint8 (H, W), optional
+        Material codes of :mod:`simroad.camera.world`.
+    params : NoiseParams, optional
+        As in :func:`make_weather`.
 
     Returns
     -------
     noisy : ndarray, same shape and dtype as ``image``
     masks : dict str -> ndarray bool (H, W)
     """
-    weather = make_weather(spec, severity, params)
+    weather = make_weather(spec, severity=severity, params=params)
     weather.reset(rng)
     return weather.apply(image, NoiseContext(camera=camera, depth=depth, material=material))

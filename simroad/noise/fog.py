@@ -21,13 +21,17 @@ s = 0 is no fog (the frame is returned unchanged).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
-from simroad.noise.base import FrameState, NoiseModel, Params, fast_exp, gray3, rgb_scalar
+from simroad.noise._arrays import fast_exp, gray3, rgb_scalar
+from simroad.noise.context import FrameState
+from simroad.noise.model import Limit, NoiseModel, Params
 
 __all__ = ["FogModel", "FogParams", "extinction_from_visibility", "koschmieder"]
 
@@ -65,9 +69,9 @@ def koschmieder(
     d = np.minimum(depth, np.float32(sky_path_m))
     t = fast_exp(d * np.float32(-beta_ext))
     a = rgb_scalar(airlight)
-    cv2.subtract(lin, a, dst=lin)
+    cv2.subtract(lin, a, dst=lin)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
     lin *= gray3(t)
-    cv2.add(lin, a, dst=lin)
+    cv2.add(lin, a, dst=lin)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
 
 
 @dataclass(frozen=True)
@@ -77,29 +81,28 @@ class FogParams(Params):
     Parameters
     ----------
     visibility_m : float
-        Meteorological visibility in m, in [10, 1e6]; ``inf``-like values (>= 1e6)
-        mean no fog.
+        Meteorological visibility in m; ``inf``-like values (>= 1e6) mean no fog.
     airlight : float
-        Airlight (horizon radiance in fog), linear relative radiance in [0, 1].
+        Airlight (horizon radiance in fog), linear relative radiance.
     sky_path_m : float
-        Depth of fog the sky is seen through, m, in [10, 1e5].
+        Depth of fog the sky is seen through, m.
     layer_m : float
         Thickness of the fog layer above the road for the sun's attenuation, m.
+
+    Each field's valid range is declared once, in ``LIMITS`` (listed under Notes).
     """
+
+    LIMITS: ClassVar[Mapping[str, Limit]] = {
+        "visibility_m": Limit(10.0, 1e6, "m"),
+        "airlight": Limit(0.0, 1.0),
+        "sky_path_m": Limit(10.0, 1e5, "m"),
+        "layer_m": Limit(0.0, 1e4, "m"),
+    }
 
     visibility_m: float = 200.0
     airlight: float = 0.7
     sky_path_m: float = 1000.0
     layer_m: float = 100.0
-
-    def __post_init__(self) -> None:
-        for name, lo, hi, unit in (
-            ("visibility_m", 10.0, 1e6, "m"),
-            ("airlight", 0.0, 1.0, ""),
-            ("sky_path_m", 10.0, 1e5, "m"),
-            ("layer_m", 0.0, 1e4, "m"),
-        ):
-            object.__setattr__(self, name, check_in_range(name, getattr(self, name), lo, hi, unit=unit))
 
     @classmethod
     def from_severity(cls, severity: float) -> FogParams:

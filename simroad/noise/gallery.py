@@ -1,60 +1,31 @@
-"""A picture of every noise at three severities, for the README and for eyeballing.
+"""The README's weather figure: every noise at three severities on one frame.
 
-``render_gallery(path)`` renders one camera frame on highway-env's racetrack (the ego
-on the first straight, heading world +x, i.e. towards the glare's default sun), then
-one row per noise: the clean frame and the noise at severities 1/3, 2/3 and 1.
+``render_gallery(path)`` takes the sample racetrack frame of
+:mod:`simroad.noise.scene` (the ego on the first straight, heading world +x, i.e.
+towards the glare's default sun) and draws one row per noise: the clean frame and the
+noise at severities 1/3, 2/3 and 1. The frame itself is shared with the benchmark and
+the tests through :mod:`simroad.noise.scene`; ``gallery_frame`` is its old name.
 """
 
 from __future__ import annotations
 
 import os
 import pathlib
-import warnings
 
 import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_int_in_range
-from simroad.noise.base import NoiseContext
 from simroad.noise.compose import make_weather
+from simroad.noise.scene import sample_context, sample_scene
 
 __all__ = ["GALLERY_NOISES", "GALLERY_SEVERITIES", "gallery_frame", "render_gallery"]
 
 GALLERY_NOISES = ("rain", "snow", "shadow", "glare", "fog")
 GALLERY_SEVERITIES = (1 / 3, 2 / 3, 1.0)
-_POSE = (80.0, 0.0, 0.0)
-_EGO_SPEED_M_S = 15.0
 
-
-def gallery_frame(seed: int = 0):
-    """Render the gallery's clean frame.
-
-    Returns
-    -------
-    frame : simroad.camera.Frame
-    camera : PinholeCamera
-        With the frame's pose set.
-    world : WorldRaster
-    """
-    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
-    import gymnasium as gym
-    import highway_env  # noqa: F401  (registers the environments)
-
-    from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, VehicleBox, WorldRaster
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # racetrack-v0 "is out of date"
-        env = gym.make("racetrack-v0")
-    try:
-        env.reset(seed=seed)
-        rng = np.random.default_rng(seed)
-        world = WorldRaster(env.unwrapped.road.network, rng)
-    finally:
-        env.close()
-    cam = PinholeCamera(CameraConfig(width=320, height=180))
-    renderer = CameraRenderer(cam, world, rng)
-    lead = VehicleBox(104.5, -0.5, 0.0, 5.0, 2.0, (200, 30, 30))
-    return renderer.render(_POSE, [lead]), cam, world
+gallery_frame = sample_scene
+"""Old name of :func:`simroad.noise.scene.sample_scene` (kept for its callers)."""
 
 
 def _label(tile: np.ndarray, text: str) -> np.ndarray:
@@ -83,10 +54,8 @@ def render_gallery(path: str | os.PathLike, *, seed: int = 0) -> pathlib.Path:
     if path.suffix.lower() != ".png":
         raise SimroadError(f"path: expected a .png file name, got {str(path)!r}.")
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
-    frame, cam, world = gallery_frame(seed)
-    ctx = NoiseContext(
-        camera=cam, depth=frame.depth, material=frame.material, vehicles=frame.vehicles, ego_speed=_EGO_SPEED_M_S
-    )
+    frame, cam, world = sample_scene(seed)
+    ctx = sample_context(frame, cam)
     rows = []
     for k, name in enumerate(GALLERY_NOISES):
         tiles = [_label(frame.rgb, "clean")]

@@ -41,15 +41,19 @@ s = 0 is an overcast sky (``sun_sky_ratio = 0``): no glare.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
-from simroad.noise._geometry import view_geometry
-from simroad.noise.base import FrameState, NoiseModel, Params, fast_exp, material_weights, sun_direction_ego
+from simroad.noise._arrays import fast_exp, material_weights
+from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, sun_direction_ego, view_geometry
+from simroad.noise.context import FrameState
+from simroad.noise.model import Limit, NoiseModel, Params
 
 __all__ = ["GlareModel", "GlareParams", "air_mass", "specular_lobe", "sun_colour", "veiling_glare"]
 
@@ -129,22 +133,35 @@ class GlareParams(Params):
     sun_azimuth_deg : float or None
         World heading towards the sun, degrees; ``None`` draws one per episode.
     sun_elevation_deg : float
-        Sun elevation above the horizon, degrees, in [0.5, 89].
+        Sun elevation above the horizon, degrees.
     sun_sky_ratio : float
-        Direct-to-sky irradiance ratio ``E_sun/E_sky`` (broadband), in [0, 50];
-        0 is an overcast sky (no glare).
+        Direct-to-sky irradiance ratio ``E_sun/E_sky`` (broadband); 0 is an overcast
+        sky (no glare).
     roughness : float
-        Beckmann rms slope of the dry road, in [0.02, 1].
+        Beckmann rms slope of the dry road.
     wetness : float
-        Fraction of the road under a smooth water film, in [0, 1].
+        Fraction of the road under a smooth water film.
     veil_coeff : float
         Stray-light coefficient k of the lens and windscreen (deg², Stiles–Holladay
-        units; 10 for the human eye), in [0, 50].
+        units; 10 for the human eye).
     bloom_deg : float
-        Angular radius of the sensor's bloom around the sun, degrees, in [0, 10].
+        Angular radius of the sensor's bloom around the sun, degrees.
     bloom_gain : float
-        Peak bloom radiance relative to white, in [0, 1000].
+        Peak bloom radiance relative to white.
+
+    Each field's valid range is declared once, in ``LIMITS`` (listed under Notes).
     """
+
+    LIMITS: ClassVar[Mapping[str, Limit]] = {
+        "sun_azimuth_deg": SUN_AZIMUTH_LIMIT,
+        "sun_elevation_deg": Limit(0.5, 89.0, "degrees"),
+        "sun_sky_ratio": Limit(0.0, 50.0),
+        "roughness": Limit(0.02, 1.0),
+        "wetness": Limit(0.0, 1.0),
+        "veil_coeff": Limit(0.0, 50.0, "deg^2"),
+        "bloom_deg": Limit(0.0, 10.0, "degrees"),
+        "bloom_gain": Limit(0.0, 1000.0),
+    }
 
     sun_azimuth_deg: float | None = 0.0
     sun_elevation_deg: float = 15.0
@@ -154,24 +171,6 @@ class GlareParams(Params):
     veil_coeff: float = 1.5
     bloom_deg: float = 1.5
     bloom_gain: float = 50.0
-
-    def __post_init__(self) -> None:
-        if self.sun_azimuth_deg is not None:
-            object.__setattr__(
-                self,
-                "sun_azimuth_deg",
-                check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"),
-            )
-        for name, lo, hi, unit in (
-            ("sun_elevation_deg", 0.5, 89.0, "degrees"),
-            ("sun_sky_ratio", 0.0, 50.0, ""),
-            ("roughness", 0.02, 1.0, ""),
-            ("wetness", 0.0, 1.0, ""),
-            ("veil_coeff", 0.0, 50.0, "deg^2"),
-            ("bloom_deg", 0.0, 10.0, "degrees"),
-            ("bloom_gain", 0.0, 1000.0, ""),
-        ):
-            object.__setattr__(self, name, check_in_range(name, getattr(self, name), lo, hi, unit=unit))
 
     @classmethod
     def from_severity(cls, severity: float) -> GlareParams:
@@ -205,9 +204,7 @@ class GlareModel(NoiseModel):
 
     def _on_reset(self) -> None:
         p = self.params
-        rng = self._require_reset()
-        az = rng.uniform(0.0, 2 * math.pi) if p.sun_azimuth_deg is None else math.radians(p.sun_azimuth_deg)
-        self.sun = (az, math.radians(p.sun_elevation_deg))
+        self.sun = draw_sun(self._require_reset(), p.sun_azimuth_deg, p.sun_elevation_deg)
 
     def _sun_terms(self, state: FrameState) -> tuple[np.ndarray, float, np.ndarray]:
         """Sun direction (ego), E_sun/E_ref after the atmosphere, and colour."""

@@ -11,9 +11,11 @@ Physics
 * **Streaks** — each drop is a particle in 3-D around the camera that falls, drifts
   with the wind and moves relative to the ego (speed and yaw rate); its streak is
   its projected path during the exposure T, blended by ``I = β·I_E + (1 − β)·I_b``
-  (eq. 19, see :mod:`simroad.noise._particles` for β). A drop that covers a pixel
-  has ``β = τ/T`` with ``τ ≈ 4a/v``: at most ≈ 1.5 ms (a = 3.5 mm), so β ≤ 0.045 at
-  T = 1/30 s (:func:`exposure_beta`). The drop's radiance is that of its wide-angle
+  (eq. 19, see :mod:`simroad.noise._streaks` for β). A drop that covers a pixel
+  has ``β = τ/T`` with ``τ ≈ 4a/v``: at most ≈ 1.5 ms (a = 3.5 mm, v = 9.5 m/s), so
+  at the default exposure T = 1/500 s β ≤ 0.74 (0.25 for a 1 mm drop;
+  :func:`exposure_beta`); a video camera's 1/30 s would give β ≤ 0.045, the long
+  faint streaks of Garg & Nayar. The drop's radiance is that of its wide-angle
   view of the environment (Garg & Nayar): ``I_E = 0.94·mean scene luminance +
   0.06·sky luminance``, grey (a drop averages the colours of a ~165° view).
 * **Haze** — the drops' extinction in the geometric-optics limit (efficiency 2):
@@ -38,30 +40,37 @@ Severity mapping (:meth:`RainParams.from_severity`), s in [0, 1]::
     exposure_s  = 1/500           # fixed: a dashcam's daylight exposure (f/1.8, EV 11)
     haze_scale  = 1               # drops only
 
-Individual streaks are faint at 320x180, as in real footage at that resolution: only
-drops within a metre or two are wider than a pixel, and at T = 1/30 s a drop changes
-a pixel it covers by at most 4.5 % of its contrast; the rest shows as haze. Drops
-whose image is narrower than 0.25 px are not simulated one by one, and at most
-``max_particles`` (default 2500, the largest first) are: at 100 mm/h that keeps 2500
-of 12 200 drops in range and about half of the pixels their streaks would change
-(at 25 mm/h: 2500 of 5200, 93 %).
+Individual streaks are sparse at 320x180, as in real footage at that resolution:
+only drops within a metre or two are wider than a pixel, and a narrower drop's β is
+scaled by the fraction ``d²`` of the pixel it covers, so at T = 1/500 s the streaks
+are short (a drop at 8 m/s moves 1.6 cm) and most drops change the pixels they cross
+by little; the rest of the rain shows as haze. Drops whose image is narrower than
+0.25 px are not simulated one by one, and at most ``max_particles`` (default 2500,
+the largest first) are: at 100 mm/h that keeps 2500 of 12 200 drops in range and
+about half of the pixels their streaks would change (at 25 mm/h: 2500 of 5200, about
+as many changed pixels, since the largest drops make most of them). The cost per
+frame grows linearly with the number of drops drawn (``make bench`` times it).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import ClassVar
 
 import cv2
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range, check_int_in_range
+from simroad._validation import check_choice, check_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
 from simroad.noise import _particles as pt
+from simroad.noise._arrays import gray3, material_weights
 from simroad.noise._geometry import ViewGeometry, view_geometry
-from simroad.noise.base import FrameState, Params, gray3, material_weights
+from simroad.noise.context import FrameState
 from simroad.noise.fog import koschmieder
+from simroad.noise.model import Limit, Params
 
 __all__ = [
     "RainModel",
@@ -69,6 +78,7 @@ __all__ = [
     "drop_radiance",
     "exposure_beta",
     "marshall_palmer",
+    "marshall_palmer_slope",
     "rain_extinction",
     "terminal_velocity",
     "wet_albedo",
@@ -86,9 +96,14 @@ _DARKEN = {ASPHALT: 1.0, MARKING: 1.0, SHOULDER: 0.8, ROADSIDE: 0.5}
 _MIRROR = {ASPHALT: 1.0, MARKING: 0.8, SHOULDER: 0.3}
 
 
+def marshall_palmer_slope(rate_mm_h: float) -> float:
+    """Slope Λ of the Marshall–Palmer distribution in mm⁻¹: ``4.1·R^−0.21`` (R in mm/h, > 0)."""
+    return 4.1 * rate_mm_h**-0.21
+
+
 def marshall_palmer(diameter_mm: np.ndarray, rate_mm_h: float) -> np.ndarray:
     """Marshall–Palmer drop size distribution N(D) in m⁻³ mm⁻¹ (D in mm, R in mm/h)."""
-    lam = 4.1 * rate_mm_h**-0.21
+    lam = marshall_palmer_slope(rate_mm_h)
     return MP_N0 * np.exp(-lam * np.asarray(diameter_mm, dtype=float))
 
 
@@ -129,7 +144,7 @@ def rain_extinction(rate_mm_h: float) -> float:
     """Extinction coefficient of rain in 1/m: ``π·N0/Λ³`` (geometric optics)."""
     if rate_mm_h <= 0:
         return 0.0
-    lam = 4.1 * rate_mm_h**-0.21
+    lam = marshall_palmer_slope(rate_mm_h)
     return math.pi * MP_N0 / lam**3 * 1e-6
 
 
@@ -165,26 +180,37 @@ class RainParams(Params):
     Parameters
     ----------
     rate_mm_h : float
-        Rain rate in mm/h, in [0, 300].
+        Rain rate in mm/h.
     wind_m_s : float
-        Horizontal wind speed in m/s, in [0, 40].
+        Horizontal wind speed in m/s.
     wind_dir_deg : float
         World heading the wind blows towards, degrees (0 = world +x).
     exposure_s : float
-        Camera exposure time T in s, in (0, 0.1].
+        Camera exposure time T in s.
     wetness : float
-        Fraction of the ground whose pores are soaked (darkens it), in [0, 1].
+        Fraction of the ground whose pores are soaked (darkens it).
     water_film : float
         Fraction of the road under a smooth film of standing water that mirrors the
-        environment (and the sun, for the glare model), in [0, 1].
+        environment (and the sun, for the glare model).
     haze_scale : float
-        Multiplier of the drops' extinction, in [0, 100].
+        Multiplier of the drops' extinction.
     airlight : float
-        Radiance of the rain-filled horizon (linear), in [0, 1].
+        Radiance of the rain-filled horizon (linear).
     max_particles : int
-        Budget of simulated drops, in [0, 200000] (about 0.3 µs each per frame
-        beyond ~1 ms of fixed cost at 320x180; see the module docstring).
+        Budget of simulated drops (the cost per frame grows linearly with it; see
+        the module docstring and ``make bench``).
+
+    Each field's valid range is declared once, in ``LIMITS`` (listed under Notes).
     """
+
+    LIMITS: ClassVar[Mapping[str, Limit]] = {
+        "rate_mm_h": Limit(0.0, 300.0, "mm/h"),
+        "wetness": Limit(0.0, 1.0),
+        "water_film": Limit(0.0, 1.0),
+        "haze_scale": Limit(0.0, 100.0),
+        "airlight": Limit(0.0, 1.0),
+        **pt.PARTICLE_LIMITS,
+    }
 
     rate_mm_h: float = 25.0
     wind_m_s: float = 4.0
@@ -195,22 +221,6 @@ class RainParams(Params):
     haze_scale: float = 1.0
     airlight: float = 0.45
     max_particles: int = 2500
-
-    def __post_init__(self) -> None:
-        for name, lo, hi, unit in (
-            ("rate_mm_h", 0.0, 300.0, "mm/h"),
-            ("wind_m_s", 0.0, 40.0, "m/s"),
-            ("wind_dir_deg", -360.0, 360.0, "degrees"),
-            ("wetness", 0.0, 1.0, ""),
-            ("water_film", 0.0, 1.0, ""),
-            ("haze_scale", 0.0, 100.0, ""),
-            ("airlight", 0.0, 1.0, ""),
-        ):
-            object.__setattr__(self, name, check_in_range(name, getattr(self, name), lo, hi, unit=unit))
-        object.__setattr__(
-            self, "exposure_s", check_in_range("exposure_s", self.exposure_s, 0.0, 0.1, unit="s", low_inclusive=False)
-        )
-        object.__setattr__(self, "max_particles", check_int_in_range("max_particles", self.max_particles, 0, 200000))
 
     @classmethod
     def from_severity(cls, severity: float) -> RainParams:
@@ -285,7 +295,7 @@ class RainModel(pt.ParticleModel):
     def _sample(self, geom) -> pt.ParticleField:
         p = self.params
         edges = np.linspace(*D_RANGE_MM, 53)
-        lam = 4.1 * p.rate_mm_h**-0.21
+        lam = marshall_palmer_slope(p.rate_mm_h)
         dens = MP_N0 / lam * (np.exp(-lam * edges[:-1]) - np.exp(-lam * edges[1:]))
         return pt.sample_field(
             self._require_reset(),

@@ -42,15 +42,18 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import ClassVar
 
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
-from simroad.noise._geometry import ego_to_world, view_geometry
+from simroad._validation import check_in_range
+from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
 from simroad.noise._occluders import Occluders, RoadIndex, Shadows, place_cell, prism_shadows
-from simroad.noise.base import FrameState, NoiseModel, Params
+from simroad.noise.context import FrameState
+from simroad.noise.model import Limit, NoiseModel, Params
 
 __all__ = ["ShadowModel", "ShadowParams", "rasterize_shadows", "shadow_factor"]
 
@@ -75,20 +78,32 @@ class ShadowParams(Params):
     sun_azimuth_deg : float or None
         World heading towards the sun, degrees; ``None`` draws one per episode.
     sun_elevation_deg : float
-        Sun elevation above the horizon, degrees, in [2, 89].
+        Sun elevation above the horizon, degrees.
     sun_sky_ratio_rgb : tuple of 3 float
-        ``E_sun / E_sky`` per channel (R, G, B), each in [0.5, 50].
+        ``E_sun / E_sky`` per channel (R, G, B).
     occluders_per_100m : float
-        Roadside trees, poles and buildings per 100 m of road, in [0, 100].
+        Roadside trees, poles and buildings per 100 m of road.
     overpasses_per_km : float
-        Overpasses per km of road, in [0, 20].
+        Overpasses per km of road.
     vehicle_shadows, ego_shadow : bool
         Shadows of the other vehicles and of the ego's own box.
     sun_diameter_deg : float
-        Angular diameter of the sun, degrees (sets the penumbra), in [0, 5].
+        Angular diameter of the sun, degrees (sets the penumbra).
     cell_m : float
-        Side of the world cells occluders are placed in, m, in [10, 500].
+        Side of the world cells occluders are placed in, m.
+
+    Each field's valid range is declared once, in ``LIMITS`` (listed under Notes).
     """
+
+    LIMITS: ClassVar[Mapping[str, Limit]] = {
+        "sun_azimuth_deg": SUN_AZIMUTH_LIMIT,
+        "sun_elevation_deg": Limit(2.0, 89.0, "degrees"),
+        "sun_sky_ratio_rgb": Limit(0.5, 50.0, length=3),
+        "occluders_per_100m": Limit(0.0, 100.0),
+        "overpasses_per_km": Limit(0.0, 20.0),
+        "sun_diameter_deg": Limit(0.0, 5.0, "degrees"),
+        "cell_m": Limit(10.0, 500.0, "m"),
+    }
 
     sun_azimuth_deg: float | None = 120.0
     sun_elevation_deg: float = 35.0
@@ -99,29 +114,6 @@ class ShadowParams(Params):
     ego_shadow: bool = True
     sun_diameter_deg: float = 0.53
     cell_m: float = 40.0
-
-    def __post_init__(self) -> None:
-        if self.sun_azimuth_deg is not None:
-            object.__setattr__(
-                self,
-                "sun_azimuth_deg",
-                check_in_range("sun_azimuth_deg", self.sun_azimuth_deg, -360, 360, unit="degrees"),
-            )
-        for name, lo, hi, unit in (
-            ("sun_elevation_deg", 2.0, 89.0, "degrees"),
-            ("occluders_per_100m", 0.0, 100.0, ""),
-            ("overpasses_per_km", 0.0, 20.0, ""),
-            ("sun_diameter_deg", 0.0, 5.0, "degrees"),
-            ("cell_m", 10.0, 500.0, "m"),
-        ):
-            object.__setattr__(self, name, check_in_range(name, getattr(self, name), lo, hi, unit=unit))
-        ratio = tuple(self.sun_sky_ratio_rgb)
-        if len(ratio) != 3:
-            raise SimroadError(f"sun_sky_ratio_rgb: expected 3 values (R, G, B), got {len(ratio)}.")
-        ratio = tuple(check_in_range(f"sun_sky_ratio_rgb[{k}]", v, 0.5, 50.0) for k, v in enumerate(ratio))
-        object.__setattr__(self, "sun_sky_ratio_rgb", ratio)
-        object.__setattr__(self, "vehicle_shadows", bool(self.vehicle_shadows))
-        object.__setattr__(self, "ego_shadow", bool(self.ego_shadow))
 
     @classmethod
     def from_severity(cls, severity: float) -> ShadowParams:
@@ -190,13 +182,13 @@ def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M) -> n
             keep.append(k)
     if not polys:
         return np.zeros((H, W), dtype=np.float32)
-    keep = np.asarray(keep)
+    kept = np.asarray(keep)
     sizes = np.array([len(p) for p in polys])
     uv = camera.ground_to_image(np.concatenate(polys))
-    b = shadows.bbox[keep]
+    b = shadows.bbox[kept]
     centre = 0.5 * (b[:, :2] + b[:, 2:])
     dist = np.maximum(np.hypot(*(centre - c).T), 2.0)
-    wx = shadows.penumbra_m[keep] * camera.K[0, 0] / dist
+    wx = shadows.penumbra_m[kept] * camera.K[0, 0] / dist
     kx, ky = _kernel(wx), _kernel(wx * cfg.mount_height_m / dist)
     pts = np.round(np.clip(uv, -1e5, 1e5) * 16).astype(np.int32)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
@@ -220,9 +212,7 @@ class ShadowModel(NoiseModel):
 
     def _on_reset(self) -> None:
         p = self.params
-        rng = self._require_reset()
-        az = rng.uniform(0.0, 2 * math.pi) if p.sun_azimuth_deg is None else math.radians(p.sun_azimuth_deg)
-        self.sun = (az, math.radians(p.sun_elevation_deg))
+        self.sun = draw_sun(self._require_reset(), p.sun_azimuth_deg, p.sun_elevation_deg)
         w = self._world
         self._road = (
             RoadIndex(None)
@@ -303,6 +293,7 @@ class ShadowModel(NoiseModel):
 
     def illumination(self, state: FrameState) -> None:
         cover = self._coverage
+        assert cover is not None  # set by prepare(), which runs before every frame's stages
         r = state.ground_rows
         t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
         k = shadow_factor(self.params.sun_sky_ratio_rgb, self.sun[1], t_sun)

@@ -10,7 +10,7 @@ import pytest
 
 from simroad.camera import CameraRenderer, Frame, PinholeCamera, WorldRaster
 from simroad.noise import NoiseContext
-from simroad.noise.gallery import gallery_frame
+from simroad.noise.scene import sample_context, sample_scene
 
 
 @dataclass
@@ -23,15 +23,7 @@ class Scene:
     def ctx(self, **kw) -> NoiseContext:
         """A context for the frame (re-setting the camera to the frame's pose)."""
         self.camera.set_pose(*self.pose)
-        base = dict(
-            camera=self.camera,
-            depth=self.frame.depth,
-            material=self.frame.material,
-            vehicles=self.frame.vehicles,
-            ego_speed=15.0,
-        )
-        base.update(kw)
-        return NoiseContext(**base)
+        return sample_context(self.frame, self.camera, **kw)
 
     def renderer(self) -> tuple[CameraRenderer, PinholeCamera]:
         """A fresh camera and renderer over the same world (for tests that move)."""
@@ -43,5 +35,5 @@ class Scene:
 def scene() -> Scene:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        frame, cam, world = gallery_frame(seed=3)
+        frame, cam, world = sample_scene(seed=3)
     return Scene(frame, cam, world, cam.pose)

@@ -20,3 +20,10 @@ def test_gallery_is_one_small_png_with_a_row_per_noise(tmp_path):
 def test_gallery_wants_a_png_path(tmp_path):
     with pytest.raises(SimroadError, match=r"path: expected a \.png"):
         render_gallery(tmp_path / "weather.jpg")
+
+
+def test_gallery_frame_is_the_shared_sample_scene():
+    from simroad.noise.gallery import gallery_frame
+    from simroad.noise.scene import sample_scene
+
+    assert gallery_frame is sample_scene

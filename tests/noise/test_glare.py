@@ -19,7 +19,7 @@ LOW_SUN = GlareParams(sun_azimuth_deg=0.0, sun_elevation_deg=5.0, wetness=0.3, v
 def _glare_at(scene, heading_deg: float, params: GlareParams = LOW_SUN) -> tuple[np.ndarray, np.ndarray]:
     renderer, cam = scene.renderer()
     frame = renderer.render((70.0, 2.0, math.radians(heading_deg)), [])
-    w = make_weather("glare", 0.5, params={"glare": params})
+    w = make_weather("glare", severity=0.5, params={"glare": params})
     w.reset(0, world=scene.world)
     out, _ = w.apply(frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=()))
     return frame.rgb, out
@@ -87,7 +87,7 @@ def test_fog_hides_the_sun(scene):
     clean = scene.frame.rgb
     gains = []
     for spec in ("glare", "glare+fog"):
-        w = make_weather(spec, 0.9, params=base)
+        w = make_weather(spec, severity=0.9, params=base)
         w.reset(0, world=scene.world)
         _out, masks = w.apply(clean, scene.ctx())
         gains.append(masks["glare"].mean())

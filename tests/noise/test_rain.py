@@ -61,7 +61,7 @@ def test_wet_albedo_follows_lekner_and_dorf_by_hand():
 
 
 def _wet(scene, wetness, film):
-    w = make_weather("rain", 0.5, params={"rain": RainParams(rate_mm_h=0.0, wetness=wetness, water_film=film)})
+    w = make_weather("rain", severity=0.5, params={"rain": RainParams(rate_mm_h=0.0, wetness=wetness, water_film=film)})
     w.reset(0, world=scene.world)
     out, _ = w.apply(scene.frame.rgb, scene.ctx())
     return srgb_to_linear(out).mean(axis=2)
@@ -106,7 +106,7 @@ def test_consecutive_drop_masks_overlap_partly(scene):
     independent draws do not."""
     masks = {}
     for seed in (0, 1):
-        w = make_weather("rain", 0.5, params={"rain": _streak_only(1e-3)})
+        w = make_weather("rain", severity=0.5, params={"rain": _streak_only(1e-3)})
         w.reset(seed, world=scene.world)
         masks[seed] = [w.apply(scene.frame.rgb, scene.ctx(dt=5e-4, time_s=k * 5e-4))[1]["rain"] for k in range(2)]
     assert masks[0][0].sum() > 300

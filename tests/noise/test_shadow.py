@@ -39,7 +39,7 @@ def _hsv_stats(rgb: np.ndarray, sel: np.ndarray) -> tuple[float, float, float]:
 def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
     # The sun low behind the car: the ego's own shadow falls on the road ahead.
     p = ShadowParams(sun_azimuth_deg=180.0, sun_elevation_deg=15.0, occluders_per_100m=0.0, vehicle_shadows=False)
-    w = make_weather("shadow", 0.5, params={"shadow": p})
+    w = make_weather("shadow", severity=0.5, params={"shadow": p})
     w.reset(0, world=scene.world)
     out, masks = w.apply(scene.frame.rgb, scene.ctx())
     asphalt = scene.frame.material == ASPHALT
@@ -63,7 +63,10 @@ def test_shadows_stay_on_the_ground_while_the_car_moves(scene):
     for pose in [(62.0, 0.0, 0.0), (70.0, 0.6, 0.06)]:
         renderer, cam = scene.renderer()
         frame = renderer.render(pose, [])
-        _, mask = model.apply(frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=()))
+        _, masks = model.apply(
+            frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=())
+        )
+        mask = masks["shadow"]
         near = np.isfinite(frame.depth) & (frame.depth < 50)
         views.append((cam.pose, mask & near, near))
     (pose_a, mask_a, near_a), (pose_b, mask_b, _) = views
@@ -121,7 +124,7 @@ def test_vehicles_cast_shadows_that_move_with_them(scene):
     p = ShadowParams(sun_azimuth_deg=90.0, sun_elevation_deg=25.0, occluders_per_100m=0.0, ego_shadow=False)
     out = []
     for x in (95.0, 99.0):
-        w = make_weather("shadow", 0.5, params={"shadow": p})
+        w = make_weather("shadow", severity=0.5, params={"shadow": p})
         w.reset(0, world=scene.world)
         car = VehicleBox(x, 4.5, 0.0, 5.0, 2.0, (20, 20, 200))
         renderer, cam = scene.renderer()
@@ -139,7 +142,9 @@ def test_vehicles_cast_shadows_that_move_with_them(scene):
 def test_shadow_and_glare_share_one_sun(az):
     from simroad.noise import GlareParams
 
-    w = make_weather("shadow+glare", 0.5, params={"glare": GlareParams(sun_azimuth_deg=az, sun_elevation_deg=12.0)})
+    w = make_weather(
+        "shadow+glare", severity=0.5, params={"glare": GlareParams(sun_azimuth_deg=az, sun_elevation_deg=12.0)}
+    )
     w.reset(0)
     assert w.models["shadow"].sun == pytest.approx(w.models["glare"].sun)
     assert w.models["glare"].sun == pytest.approx((math.radians(az), math.radians(12.0)))

@@ -45,7 +45,7 @@ def test_snow_haze_visibility_is_hundreds_of_metres_in_heavy_snow():
 
 def _settled(scene, on_road: bool):
     p = SnowParams(flake_density_m3=0.0, settle=0.9, settle_on_road=on_road, haze_scale=0.0)
-    w = make_weather("snow", 0.5, params={"snow": p})
+    w = make_weather("snow", severity=0.5, params={"snow": p})
     w.reset(0, world=scene.world)
     return w.apply(scene.frame.rgb, scene.ctx())[1]["snow"]
 
@@ -63,7 +63,7 @@ def test_consecutive_flake_masks_overlap_partly(scene):
     p = SnowParams(flake_density_m3=2000.0, haze_scale=0.0, exposure_s=1 / 60)
     masks = {}
     for seed in (0, 1):
-        w = make_weather("snow", 0.5, params={"snow": p})
+        w = make_weather("snow", severity=0.5, params={"snow": p})
         w.reset(seed, world=scene.world)
         masks[seed] = [w.apply(scene.frame.rgb, scene.ctx(dt=5e-3, time_s=k * 5e-3))[1]["snow"] for k in range(2)]
 

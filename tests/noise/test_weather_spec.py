@@ -36,7 +36,7 @@ from simroad.noise import (
 )
 def test_spec_is_parsed_into_canonical_order(spec, names):
     assert parse_noise(spec) == names
-    assert make_weather(spec, 0.3).spec == ("+".join(names) or "clear")
+    assert make_weather(spec, severity=0.3).spec == ("+".join(names) or "clear")
 
 
 @pytest.mark.parametrize(
@@ -82,7 +82,7 @@ def test_severity_maps_to_documented_parameters():
 
 
 def test_params_override_the_severity_mapping():
-    w = make_weather("rain+fog", 0.2, params={"fog": FogParams(visibility_m=55.0)})
+    w = make_weather("rain+fog", severity=0.2, params={"fog": FogParams(visibility_m=55.0)})
     assert w.models["fog"].params.visibility_m == 55.0
     assert w.models["rain"].params == RainParams.from_severity(0.2)
 
@@ -97,7 +97,7 @@ def test_params_override_the_severity_mapping():
 )
 def test_bad_params_are_clear_errors(params, match):
     with pytest.raises(SimroadError, match=match):
-        make_weather("rain", 0.5, params=params)
+        make_weather("rain", severity=0.5, params=params)
 
 
 @pytest.mark.parametrize(
@@ -132,7 +132,7 @@ def test_bad_images_are_clear_errors(image, match):
 
 
 def test_context_must_match_the_image(scene):
-    w = make_weather("fog", 0.5)
+    w = make_weather("fog", severity=0.5)
     w.reset(0)
     img = scene.frame.rgb
     with pytest.raises(SimroadError, match=r"depth: expected shape \(180, 320\)"):

@@ -1,0 +1,91 @@
+"""Radiometry of the weather models: sRGB frames to linear radiance and back.
+
+Frames are treated as sRGB-encoded with a display gamma of 2.2. Every model works on
+*linear* relative radiance (float32, 1.0 = a white Lambertian surface under the
+scene's illumination, which is the camera's exposure reference), because light adds
+and attenuates linearly there: the paper's eq. 19 blend, Koschmieder's law and the
+dichromatic model's sum (eq. 23) are all statements about radiance. The runner
+(:func:`simroad.noise.model.run_models`) decodes the frame once, lets each model act
+on the linear buffer, and encodes once; values above 1.0 clip to 255, which is the
+sensor's saturation.
+
+A model's ground-truth mask marks the pixels its stages changed by at least
+:data:`MASK_THRESHOLD` = 8 grey levels (of 255) on any channel of the encoded frame
+(:func:`change_mask`).
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ["GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
+
+GAMMA = 2.2
+MASK_THRESHOLD = 8
+
+_DECODE_LUT = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.float32)
+
+
+def srgb_to_linear(image: np.ndarray) -> np.ndarray:
+    """Decode an sRGB frame to linear relative radiance.
+
+    Parameters
+    ----------
+    image : ndarray, uint8 (H, W, 3) in 0..255, or float32/float64 in [0, 1]
+
+    Returns
+    -------
+    ndarray, float32, (H, W, 3)
+        Linear radiance, 1.0 = white.
+    """
+    if image.dtype == np.uint8:
+        return cv2.LUT(image, _DECODE_LUT)
+    return np.power(image.astype(np.float32), GAMMA, dtype=np.float32)
+
+
+def linear_to_srgb(lin: np.ndarray, dtype: np.dtype | type = np.uint8) -> np.ndarray:
+    """Encode linear radiance; values above 1.0 saturate (255 for uint8).
+
+    Parameters
+    ----------
+    lin : ndarray, float32, (H, W, 3)
+        Linear radiance (not modified).
+    dtype : numpy dtype
+        ``uint8`` (0..255) or a float dtype (0..1).
+
+    Returns
+    -------
+    ndarray, (H, W, 3), of ``dtype``
+    """
+    # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
+    x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    x *= np.float32(1.0 / GAMMA)
+    x = cv2.exp(x)
+    if np.dtype(dtype) == np.uint8:
+        return cv2.convertScaleAbs(x, alpha=255.0)
+    return np.minimum(x, 1.0).astype(dtype)
+
+
+def change_mask(before: np.ndarray, after: np.ndarray, threshold: int = MASK_THRESHOLD) -> np.ndarray:
+    """Pixels where two uint8 frames differ by ``>= threshold`` on any channel.
+
+    Parameters
+    ----------
+    before, after : ndarray, uint8, (H, W, 3)
+    threshold : int
+        Grey levels (of 255).
+
+    Returns
+    -------
+    ndarray, bool, (H, W)
+    """
+    d = cv2.absdiff(before, after)
+    return np.maximum(np.maximum(d[..., 0], d[..., 1]), d[..., 2]) >= threshold
+
+
+def as_uint8(image: np.ndarray) -> np.ndarray:
+    """A frame as uint8 (H, W, 3): uint8 input as is, float [0, 1] rounded to 0..255."""
+    if image.dtype == np.uint8:
+        return image
+    return np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
