@@ -1,4 +1,4 @@
-"""Episode videos: what a person looks at to understand a failure.
+"""Record an episode as an annotated video: what a person looks at to understand a failure.
 
 Each frame is the (noisy) camera view with the predicted road mask tinted green,
 the ground-truth road outline in yellow, and a bird's-eye inset (top right) of the
@@ -14,6 +14,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from simroad._validation import SimroadError
 
@@ -76,13 +77,14 @@ class EpisodeVideo:
         """Write the file and return its path."""
         import imageio.v2 as imageio
 
-        if not self.frames:
+        frames: list[npt.ArrayLike] = list(self.frames)
+        if not frames:
             raise SimroadError("video: the episode produced no frames.")
         try:
             if self.path.suffix.lower() == ".gif":
-                imageio.mimsave(self.path, self.frames, duration=1.0 / self.fps, loop=0)
+                imageio.mimsave(self.path, frames, duration=1.0 / self.fps, loop=0)
             else:
-                imageio.mimsave(self.path, self.frames, fps=self.fps, macro_block_size=1)
+                imageio.mimsave(self.path, frames, fps=self.fps, macro_block_size=1)
         except (OSError, ValueError, RuntimeError) as exc:
             raise SimroadError(f"video: could not write {str(self.path)!r}: {exc}") from None
         return self.path
