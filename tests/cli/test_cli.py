@@ -47,6 +47,7 @@ def test_every_subcommand_has_help(cmd, capsys):
         assert action.help, f"{cmd} {action.option_strings or action.dest} has no help"
 
 
+@pytest.mark.slow  # a fresh interpreter importing simroad: seconds
 def test_python_dash_m_simroad_runs_the_cli(tmp_path):
     # one subprocess (imports cost seconds): __main__ dispatches to main and its exit status
     res = subprocess.run([sys.executable, "-m", "simroad", "frames", "--scenario", "higway", "--out", str(tmp_path / "x")],

@@ -1,5 +1,6 @@
-"""A stub episode for fast runner tests: deterministic, slow enough to be killed, and
-raising for one chosen cell so the runner's error branch (:func:`run_cell`) runs."""
+"""A stub episode for fast runner tests: deterministic, raising for one chosen cell so
+the runner's error branch (:func:`run_cell`) runs, and as slow as :data:`DELAY_S` says
+(the kill test raises it so that the sweep is still running when it is killed)."""
 
 from __future__ import annotations
 
@@ -8,13 +9,15 @@ import time
 from simroad.experiments.ablate import run_cell
 from simroad.experiments.episode import RECORD_KEYS, format_filters
 
+#: Seconds each stub episode sleeps (set before the sweep; forked workers inherit it).
+DELAY_S = 0.005
 #: The cell whose episode raises: the oracle of seed 13.
 FAILING_SEED, FAILING_DRIVER = 13, "oracle"
 
 
 def stub_episode(spec):
     """A fake ``run_episode``: a record whose FNR depends on the seed only."""
-    time.sleep(0.05)
+    time.sleep(DELAY_S)
     if spec.seed == FAILING_SEED and spec.driver == FAILING_DRIVER:
         raise RuntimeError("boom")
     record = dict.fromkeys(RECORD_KEYS, 0.0)

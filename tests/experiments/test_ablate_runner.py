@@ -102,6 +102,8 @@ def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
     script = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(HERE)!r})
+        import stub_cell as stub
+        stub.DELAY_S = 0.05  # slow enough to be killed mid-sweep
         from stub_cell import stub_cell
         from simroad.experiments.ablate import run_ablation
         from simroad.experiments.grid import AblationGrid
