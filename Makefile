@@ -4,12 +4,14 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
-.PHONY: all demo paper test bench figures clean help
+.PHONY: all demo paper test test-fast lint bench figures clean help
 
 help:
 	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
-	@echo "make paper    the paper's experiment at full size (about 10 min on 2 cores; runs/paper)"
-	@echo "make test     set up .venv with test extras and run the test suite"
+	@echo "make paper    the paper's experiment at full size (486 episodes, the longest job; runs/paper)"
+	@echo "make test     set up .venv with test extras; lint (ruff), types (mypy), then the whole test suite"
+	@echo "make test-fast  lint, types and the tests not marked slow (under a minute; the edit loop)"
+	@echo "make lint     ruff check, ruff format --check and mypy only"
 	@echo "make bench    run the benchmarks (medians and side-by-side ratios)"
 	@echo "make figures  regenerate the pictures in docs/"
 
@@ -22,10 +24,19 @@ $(STAMP): pyproject.toml
 
 demo: $(STAMP)
 	$(BIN)/simroad ablate --config experiments/demo.toml
-	$(BIN)/python -m simroad.experiments.demo --out runs/demo/videos
+	$(BIN)/simroad videos --out runs/demo/videos
 
-test: $(STAMP)
+# A lint, format or type error fails the build before any test runs.
+lint: $(STAMP)
+	$(BIN)/ruff check simroad tests benchmarks
+	$(BIN)/ruff format --check simroad tests benchmarks
+	$(BIN)/mypy
+
+test: lint
 	$(BIN)/python -m pytest -q -n 2
+
+test-fast: lint
+	$(BIN)/python -m pytest -q -n 2 -m "not slow"
 
 paper: $(STAMP)
 	$(BIN)/simroad ablate --config experiments/paper.toml
@@ -39,4 +50,4 @@ figures: $(STAMP)
 	$(BIN)/simroad evaluate-detector --seeds 1 --frames 2 --figure docs/qualitative.png
 
 clean:
-	rm -rf $(VENV) runs .pytest_cache
+	rm -rf $(VENV) runs .pytest_cache .mypy_cache .ruff_cache

@@ -1,4 +1,4 @@
-"""Ablation sweeps: every grid cell one episode, in parallel, resumable.
+"""Run an ablation sweep: every grid cell one episode, in parallel, resumable.
 
 Results go to ``DIR/results.jsonl``, one record per finished episode (the
 ``simroad episode --json`` keys plus ``error``), appended by the parent process
@@ -35,10 +35,25 @@ __all__ = ["BACKENDS", "ResultStore", "run_ablation", "run_cell"]
 BACKENDS = ("local", "ray")
 
 
-def run_cell(spec: EpisodeSpec) -> dict[str, Any]:
-    """Run one episode; a failure becomes a record with ``error`` set, never a crash."""
+def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str, Any]] = run_episode) -> dict[str, Any]:
+    """Run one episode; a failure becomes a record with ``error`` set, never a crash.
+
+    Parameters
+    ----------
+    spec : EpisodeSpec
+        The cell.
+    episode_fn : callable, optional
+        ``spec -> record`` (default :func:`run_episode`; tests pass a stub).
+
+    Returns
+    -------
+    dict
+        The episode's record plus ``error``: None, or the exception's type, message
+        and a short traceback, with the cell's identity keys kept and every metric
+        NaN.
+    """
     try:
-        record = run_episode(spec)
+        record = episode_fn(spec)
         record["error"] = None
     except Exception as exc:
         record = dict.fromkeys(RECORD_KEYS, math.nan)
@@ -113,6 +128,7 @@ class ResultStore:
             os.close(fd)
 
     def records(self) -> list[dict]:
+        """The valid records, one per cell (repairing the file first if needed)."""
         return list(self.repair().values())
 
 

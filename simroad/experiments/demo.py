@@ -1,39 +1,72 @@
-"""The videos of the main job: one short detector episode per noise.
+"""Write the demo's videos (``simroad videos``): one short detector episode per noise.
 
 ``make demo`` runs the small ablation of ``experiments/demo.toml`` (tables and
-figures in ``runs/demo``), then this module writes ``runs/demo/videos/NOISE.gif``:
-the noisy camera view with the predicted road mask (green), the ground-truth
-outline (yellow) and a bird's-eye inset with the trajectory.
+figures in ``runs/demo``), then ``simroad videos --out runs/demo/videos`` writes
+``NOISE.gif`` per noise: the noisy camera view with the predicted road mask
+(green), the ground-truth outline (yellow) and a bird's-eye inset with the
+trajectory.
 """
 
 from __future__ import annotations
 
-import argparse
+import os
 from pathlib import Path
 
 from tqdm import tqdm
 
-from simroad.experiments.episode import EpisodeSpec, run_episode
+# after merge: from simroad.filters import parse_filters
+from simroad.experiments.episode import EpisodeSpec, parse_filters, run_episode
 from simroad.experiments.export import ensure_writable_dir
 
 __all__ = ["DEMO_NOISES", "write_videos"]
 
+#: The weathers of the demo videos, one GIF each.
 DEMO_NOISES = ("clear", "rain", "snow", "shadow", "glare")
 
 
 def write_videos(
-    out: str | Path, *, scenario: str = "winding", seed: int = 0, steps: int = 60, severity: float = 0.7
+    out: str | os.PathLike,
+    *,
+    scenario: str = "winding",
+    seed: int = 0,
+    steps: int = 60,
+    severity: float = 0.7,
+    noises: tuple[str, ...] = DEMO_NOISES,
+    progress: bool = True,
 ) -> list[Path]:
-    """One GIF per noise of the detector driver with all filters."""
-    out = ensure_writable_dir("out", out)
+    """One GIF per noise of the detector driver with all filters.
+
+    Parameters
+    ----------
+    out : path
+        Output directory (created); the files are ``OUT/NOISE.gif``.
+    scenario : str, optional
+        The world (default ``winding``: a new country road per seed).
+    seed : int, optional
+        Episode seed.
+    steps : int, optional
+        Policy steps per video (one frame each).
+    severity : float, optional
+        Weather severity in [0, 1].
+    noises : tuple of str, optional
+        Weathers, one video each (default :data:`DEMO_NOISES`).
+    progress : bool, optional
+        Show a progress bar.
+
+    Returns
+    -------
+    list of Path
+        The videos written, in the order of ``noises``.
+    """
+    directory = ensure_writable_dir("out", out)
     paths = []
-    for noise in tqdm(DEMO_NOISES, desc="videos", unit="video"):
-        path = out / f"{noise}.gif"
+    for noise in tqdm(noises, desc="videos", unit="video", disable=not progress):
+        path = directory / f"{noise}.gif"
         spec = EpisodeSpec(
             scenario=scenario,
             noise=noise,
             severity=severity,
-            filters=("shadow", "rain_snow", "light"),
+            filters=parse_filters("all"),
             seed=seed,
             steps=steps,
             route_m=1e4,
@@ -41,16 +74,3 @@ def write_videos(
         run_episode(spec, video=str(path))
         paths.append(path)
     return paths
-
-
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default="runs/demo/videos")
-    parser.add_argument("--seed", type=int, default=0)
-    args = parser.parse_args()
-    paths = write_videos(args.out, seed=args.seed)
-    print("videos: " + ", ".join(str(p) for p in paths))
-
-
-if __name__ == "__main__":
-    main()

@@ -1,21 +1,42 @@
-"""Offline detector evaluation (``simroad evaluate-detector``) and the paper's
-qualitative figure (its Figs. 3-6)."""
+"""Score the detector offline on frames (``simroad evaluate-detector``); draw the paper's Figs. 3-6.
+
+:func:`evaluate_detector` renders held-out frames (or reads a folder of real images
+and masks) and scores each filter setting; :func:`evaluate_frames` does the scoring
+on frames you already have; :func:`qualitative_figure` draws the paper's
+qualitative figure.
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
-from simroad.experiments.episode import format_filters
+from simroad.envs import SCENARIO_NAMES
+
+# after merge: from simroad.filters import format_filters, parse_filters
+from simroad.experiments.episode import format_filters, parse_filters
 from simroad.experiments.frames import FrameSet, collect_frames
+from simroad.experiments.training import HELD_OUT_SEEDS
 from simroad.metrics.mask import MaskScore
 
-__all__ = ["FILTER_MASK_TRUTH", "evaluate_frames", "format_table", "load_image_folder", "qualitative_figure"]
+__all__ = [
+    "FILTER_MASK_TRUTH",
+    "evaluate_detector",
+    "evaluate_frames",
+    "format_table",
+    "load_image_folder",
+    "model_factory",
+    "qualitative_figure",
+]
+
+#: A detector for a filter setting: ``filters -> fitted detector``.
+DetectorFactory = Callable[[tuple[str, ...]], Any]
 
 #: Which ground-truth noise mask a filter's own detection mask is scored against.
 FILTER_MASK_TRUTH = {"shadow": "shadow", "light": "glare"}
@@ -59,7 +80,7 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
 def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
     from simroad.filters import remove_highlights, remove_shadows
 
-    fns = {"shadow": remove_shadows, "light": remove_highlights}
+    fns: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shadows, "light": remove_highlights}
     scores: dict[str, MaskScore] = {}
     for name in filters:
         truth_name = FILTER_MASK_TRUTH.get(name)
@@ -75,16 +96,55 @@ def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, M
     return scores
 
 
+def _pretrained(filters: tuple[str, ...]) -> Any:
+    from simroad.detector import RoadDetector
+
+    return RoadDetector.pretrained(filters=filters)
+
+
+def model_factory(path: str | os.PathLike) -> DetectorFactory:
+    """A detector factory for the model file at ``path`` (read once, checked now):
+    its own filter setting returns the loaded detector, another setting a fresh copy
+    set to those filters."""
+    from simroad.detector import RoadDetector
+
+    base = RoadDetector.load(path)
+
+    def factory(filters: tuple[str, ...]) -> Any:
+        if filters == tuple(base.filters):
+            return base
+        return RoadDetector.load(path).set_params(filters=filters)
+
+    return factory
+
+
 def evaluate_frames(
-    frames: FrameSet, settings: Sequence[tuple[str, ...]], *, detector_factory=None
+    frames: FrameSet, settings: Sequence[tuple[str, ...]], *, detector_factory: DetectorFactory | None = None
 ) -> tuple[list[dict], list[dict]]:
     """Score each filter setting's masks on ``frames``; also the filters' own masks.
 
-    Returns (detector rows, filter-mask rows), each a list of dicts.
-    """
-    from simroad.detector import RoadDetector
+    Parameters
+    ----------
+    frames : FrameSet
+        Frames with their ground-truth road masks, valid-pixel masks and (for the
+        filter-mask rows) ground-truth noise masks.
+    settings : sequence of tuple of str
+        Filter settings, e.g. ``[(), ("shadow", "rain_snow", "light")]``.
+    detector_factory : callable, optional
+        ``filters -> fitted detector``; default the shipped model
+        (:meth:`RoadDetector.pretrained`).
 
-    factory = detector_factory or (lambda f: RoadDetector.pretrained(filters=f))
+    Returns
+    -------
+    rows : list of dict
+        One per setting: ``filters`` (text), ``frames``, pooled ``fnr``, ``fpr``,
+        ``iou``, ``f1`` (fractions).
+    filter_rows : list of dict
+        One per filter with its own detection mask (shadow, light) and frames whose
+        noise it detects: ``mask``, ``frames``, ``precision``, ``recall``, ``iou``,
+        ``f1`` against the ground-truth noise mask.
+    """
+    factory = detector_factory or _pretrained
     rows = []
     for filters in settings:
         det = factory(tuple(filters))
@@ -109,13 +169,61 @@ def evaluate_frames(
     return rows, frows
 
 
+def evaluate_detector(
+    settings: Sequence[str | Sequence[str]] = ("none", "all"),
+    *,
+    scenarios: Sequence[str] = SCENARIO_NAMES,
+    noise: str = "clear",
+    severity: float = 0.7,
+    seeds: Sequence[int] = HELD_OUT_SEEDS,
+    frames_per_seed: int = 20,
+    images: str | os.PathLike | None = None,
+    masks: str | os.PathLike | None = None,
+    model: str | os.PathLike | None = None,
+) -> tuple[list[dict], list[dict]]:
+    """Score the detector on held-out rendered frames, or on a folder of images and masks.
+
+    Parameters
+    ----------
+    settings : sequence of str or sequence of str
+        Filter settings as :func:`parse_filters` reads them (``"none"``, ``"all"``,
+        ``"shadow+light"``, or tuples of names).
+    scenarios, noise, severity, seeds, frames_per_seed
+        The rendered frames (see :func:`~simroad.experiments.frames.collect_frames`):
+        one episode per scenario and seed (default :data:`HELD_OUT_SEEDS`, worlds
+        the shipped model never saw), a frame every 4 policy steps; severity in [0, 1].
+    images, masks : path, optional
+        Folders of real images and their road masks (both or neither), read by
+        :func:`load_image_folder` instead of rendering.
+    model : path, optional
+        A detector ``.npz`` (e.g. from ``simroad train-detector``) instead of the
+        shipped model.
+
+    Returns
+    -------
+    rows, filter_rows : list of dict
+        As :func:`evaluate_frames` returns them.
+    """
+    parsed = [parse_filters(f) for f in settings]
+    factory = model_factory(model) if model is not None else None
+    if images is not None or masks is not None:
+        if images is None or masks is None:
+            raise SimroadError("images: --images and --masks go together.")
+        frames = load_image_folder(images, masks)
+    else:
+        frames = collect_frames(
+            scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, noise=noise, severity=severity
+        )
+    return evaluate_frames(frames, parsed, detector_factory=factory)
+
+
 def format_table(rows: list[dict], *, percent: Sequence[str] = ()) -> str:
     """A plain text table of dict rows."""
     if not rows:
         return "(no rows)"
     cols = list(rows[0])
 
-    def cell(k, v):
+    def cell(k: str, v: object) -> str:
         if isinstance(v, float):
             return f"{100 * v:.2f}%" if k in percent else f"{v:.3f}"
         return str(v)

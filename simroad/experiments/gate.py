@@ -1,4 +1,4 @@
-"""``--require`` gates: ``'offroad_fraction<=0.01'`` checked against an episode record."""
+"""Check an episode record against ``--require`` gates such as ``'offroad_fraction<=0.01'``."""
 
 from __future__ import annotations
 
@@ -25,6 +25,7 @@ class Requirement:
     value: float
 
     def holds(self, actual: Any) -> bool:
+        """Whether the record's value ``actual`` meets the gate (None counts as +inf)."""
         if actual is None:  # e.g. min_ttc_s when nothing ever closed in: infinitely safe
             actual = float("inf")
         return bool(_OPS[self.op](float(actual), self.value))

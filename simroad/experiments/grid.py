@@ -6,8 +6,10 @@ import difflib
 import hashlib
 import json
 import os
-import sys
+import tomllib
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, fields
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -74,7 +76,8 @@ class AblationGrid:
             for noise in self.noises:
                 for severity in (0.0,) if noise == "clear" else self.severities:
                     for seed in range(self.seed_start, self.seed_start + self.seeds):
-                        base = dict(
+                        base = partial(
+                            EpisodeSpec,
                             scenario=scenario,
                             noise=noise,
                             severity=severity,
@@ -83,9 +86,9 @@ class AblationGrid:
                             traffic=self.traffic,
                         )
                         if self.oracle:
-                            out.append(EpisodeSpec(driver="oracle", **base))
+                            out.append(base(driver="oracle"))
                         for f in self.filters:
-                            out.append(EpisodeSpec(driver="detector", filters=parse_filters(f), **base))
+                            out.append(base(driver="detector", filters=parse_filters(f)))
         return out
 
     def fingerprint(self) -> str:
@@ -94,9 +97,14 @@ class AblationGrid:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def cell_key(spec_or_record) -> str:
-    """The identity of one grid cell (one episode)."""
-    get = spec_or_record.get if isinstance(spec_or_record, dict) else lambda k: getattr(spec_or_record, k)
+def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
+    """The identity of one grid cell (one episode), from its spec or its record."""
+
+    def get(key: str) -> Any:
+        if isinstance(spec_or_record, Mapping):
+            return spec_or_record[key]
+        return getattr(spec_or_record, key)
+
     filters = get("filters")
     filters = filters if isinstance(filters, str) else format_filters(filters)
     return f"{get('scenario')}|{get('noise')}|{float(get('severity')):g}|{filters}|{get('driver')}|{int(get('seed'))}"
@@ -105,10 +113,6 @@ def cell_key(spec_or_record) -> str:
 def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     """Read a TOML grid file; keys are AblationGrid's fields (``seed-start`` or
     ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``."""
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # pragma: no cover
-        import tomli as tomllib
     p = Path(path)
     try:
         data = tomllib.loads(p.read_text())

@@ -1,10 +1,14 @@
-"""Reports of a sweep, rebuilt from ``results.jsonl`` alone (``simroad report DIR``).
+"""Build a sweep's report from ``results.jsonl`` alone (``simroad report DIR``).
 
-``summary.csv`` / ``summary.md``
+``summary.csv`` / ``summary.json``
     One row per scenario x noise x severity x filters x driver: the number of
     episodes, failed episodes, and mean with 95 % confidence half-width (Student t
-    over seeds) of FNR, FPR, IoU, off-road fraction, collision rate, lateral RMSE and
-    driving score.
+    over seeds; the ``*_ci95`` columns) of FNR, FPR, IoU, off-road fraction,
+    collision rate, lateral RMSE and driving score. The JSON file holds the same
+    rows as a list of objects (NaN where no episode had a finite value).
+``summary.md``
+    The same table for people, under an at-a-glance table per noise and severity
+    (:func:`headline`).
 ``error_rates.png``
     The paper's Fig. 7a done properly: pooled-per-episode FNR and FPR per noise, one
     bar per filter set, with 95 % confidence intervals.
@@ -228,7 +232,20 @@ def _safety_figure(records: list[dict], path: Path) -> None:
 
 
 def build_report(directory: str | os.PathLike) -> dict[str, Path]:
-    """Rebuild summary.csv, summary.md, error_rates.png and safety.png in ``directory``."""
+    """Rebuild the report files of the sweep in ``directory`` from its results.jsonl.
+
+    Parameters
+    ----------
+    directory : path
+        A sweep's output directory (holding ``results.jsonl``).
+
+    Returns
+    -------
+    dict of str to Path
+        File name -> path of each file written: ``summary.csv``, ``summary.json``,
+        ``summary.md``, ``error_rates.png`` and ``safety.png`` (see the module
+        docstring for their contents).
+    """
     from simroad.experiments.ablate import ResultStore
 
     d = Path(directory)
@@ -239,15 +256,10 @@ def build_report(directory: str | os.PathLike) -> dict[str, Path]:
     if not records:
         raise SimroadError(f"dir: {str(store.path)!r} holds no finished episode yet.")
     rows = summarise(records)
-    out = {
-        "summary.csv": d / "summary.csv",
-        "summary.md": d / "summary.md",
-        "error_rates.png": d / "error_rates.png",
-        "safety.png": d / "safety.png",
-    }
+    out = {name: d / name for name in ("summary.csv", "summary.json", "summary.md", "error_rates.png", "safety.png")}
     _write_csv(rows, out["summary.csv"])
+    out["summary.json"].write_text(json.dumps(rows, indent=1, default=str))
     _write_md_with_headline(records, rows, out["summary.md"])
     _error_rates_figure(records, out["error_rates.png"])
     _safety_figure(records, out["safety.png"])
-    (d / "summary.json").write_text(json.dumps(rows, indent=1, default=str))
     return out

@@ -1,4 +1,4 @@
-"""Reproduce the shipped detector: ``simroad train-detector``."""
+"""Train a road detector like the shipped one (``simroad train-detector``)."""
 
 from __future__ import annotations
 
@@ -6,30 +6,84 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from simroad._validation import SimroadError
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import collect_frames
 
-__all__ = ["TRAIN_SEEDS", "train_detector"]
+__all__ = [
+    "DEFAULT_MODEL_FILE",
+    "HELD_OUT_SEEDS",
+    "TRAIN_FRAMES_PER_SEED",
+    "TRAIN_SEEDS",
+    "check_writable_file",
+    "train_detector",
+]
 
 #: Seeds of the shipped model's training worlds; evaluation uses seeds >= 100.
 TRAIN_SEEDS = tuple(range(16))
+#: Frames kept per scenario and training seed (one every 6 policy steps).
+TRAIN_FRAMES_PER_SEED = 12
+#: Worlds the shipped model never saw: the default of detector evaluations.
+HELD_OUT_SEEDS = tuple(range(100, 105))
+#: Where ``simroad train-detector`` writes by default: this name in the working
+#: directory (never the installed package).
+DEFAULT_MODEL_FILE = "road_detector.npz"
+
+
+def check_writable_file(name: str, path: str | os.PathLike) -> Path:
+    """Check that a file can be written at ``path`` (creating its parent folders).
+
+    Raises :class:`SimroadError` naming ``name`` when ``path`` is a directory, or
+    its folder cannot be created or written, or the file exists read-only.
+    """
+    from simroad.experiments.export import ensure_writable_dir
+
+    p = Path(path)
+    if p.is_dir():
+        raise SimroadError(
+            f"{name}: {str(p)!r} is a directory; give a file path such as {str(p / DEFAULT_MODEL_FILE)!r}."
+        )
+    ensure_writable_dir(name, p.parent)
+    if p.exists() and not os.access(p, os.W_OK):
+        raise SimroadError(f"{name}: {str(p)!r} exists and is not writable. Choose another path.")
+    return p
 
 
 def train_detector(
-    out: str | os.PathLike | None = None,
+    out: str | os.PathLike = DEFAULT_MODEL_FILE,
     *,
     seeds: Sequence[int] = TRAIN_SEEDS,
-    frames_per_seed: int = 12,
+    frames_per_seed: int = TRAIN_FRAMES_PER_SEED,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seed: int = 0,
 ) -> Path:
-    """Render clean frames of every scenario (one world palette per seed), fit the
-    default detector on them and save it (npz) to ``out`` (default: the package's
-    shipped model file). Returns the path written."""
-    from simroad.detector import default_model_path, train_default
+    """Render clean frames and fit the default detector on them, as for the shipped model.
 
+    Parameters
+    ----------
+    out : path, optional
+        The ``.npz`` file to write (default: ``road_detector.npz`` in the current
+        working directory). Checked to be writable before any frame is rendered;
+        the package's own model file is only replaced if you name it here.
+    seeds : sequence of int, optional
+        Training worlds, one world palette each (default :data:`TRAIN_SEEDS`).
+    frames_per_seed : int, optional
+        Frames per scenario and seed, one every 6 policy steps.
+    scenarios : sequence of str, optional
+        Scenarios rendered (default: all).
+    seed : int, optional
+        Seeds the choice of training pixels.
+
+    Returns
+    -------
+    Path
+        The file written; load it with ``RoadDetector.load(path)`` or pass it to
+        ``simroad evaluate-detector --model PATH``.
+    """
+    from simroad.detector import train_default
+
+    path = check_writable_file("out", out)
     frames = collect_frames(scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, every=6)
     det = train_default(frames.images, frames.masks, rng=seed)
-    path = Path(out) if out is not None else default_model_path()
     det.save(path)
     return path

@@ -1,4 +1,4 @@
-"""Episode videos: what a person looks at to understand a failure.
+"""Record an episode as an annotated video: what a person looks at to understand a failure.
 
 Each frame is the (noisy) camera view with the predicted road mask tinted green,
 the ground-truth road outline in yellow, and a bird's-eye inset (top right) of the
@@ -14,6 +14,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from simroad._validation import SimroadError
 
@@ -21,7 +22,22 @@ __all__ = ["EpisodeVideo", "overlay_frame"]
 
 
 def overlay_frame(obs: np.ndarray, gt: np.ndarray, pred: np.ndarray | None) -> np.ndarray:
-    """The view with the predicted mask tinted green and the GT outline in yellow."""
+    """The view with the predicted mask tinted green and the GT outline in yellow.
+
+    Parameters
+    ----------
+    obs : ndarray (H, W, 3), uint8
+        The camera frame (RGB); not modified.
+    gt : ndarray (H, W), bool
+        Ground-truth road mask; its outline is drawn 1 pixel wide in (255, 230, 0).
+    pred : ndarray (H, W), bool, optional
+        Predicted road mask; its pixels become 0.6 x view + 0.4 x (40, 220, 60).
+
+    Returns
+    -------
+    ndarray (H, W, 3), uint8
+        A new annotated frame.
+    """
     out = obs.copy()
     if pred is not None:
         tint = out[pred].astype(np.float32)
@@ -48,6 +64,9 @@ class EpisodeVideo:
         self.trail: list[np.ndarray] = []
 
     def add(self, obs: np.ndarray, info: dict, pred: np.ndarray | None) -> None:
+        """Append one annotated frame: ``obs`` (H, W, 3) uint8 with ``pred`` (H, W) bool
+        tinted, the outline of ``info["road_mask"]``, and the bird's-eye inset with the
+        trajectory up to ``info["pose"]`` (x m, y m, heading rad)."""
         frame = overlay_frame(obs, info["road_mask"], pred)
         self.trail.append(np.asarray(info["pose"][:2], dtype=float))
         h = frame.shape[0]
@@ -76,13 +95,14 @@ class EpisodeVideo:
         """Write the file and return its path."""
         import imageio.v2 as imageio
 
-        if not self.frames:
+        frames: list[npt.ArrayLike] = list(self.frames)
+        if not frames:
             raise SimroadError("video: the episode produced no frames.")
         try:
             if self.path.suffix.lower() == ".gif":
-                imageio.mimsave(self.path, self.frames, duration=1.0 / self.fps, loop=0)
+                imageio.mimsave(self.path, frames, duration=1.0 / self.fps, loop=0)
             else:
-                imageio.mimsave(self.path, self.frames, fps=self.fps, macro_block_size=1)
+                imageio.mimsave(self.path, frames, fps=self.fps, macro_block_size=1)
         except (OSError, ValueError, RuntimeError) as exc:
             raise SimroadError(f"video: could not write {str(self.path)!r}: {exc}") from None
         return self.path

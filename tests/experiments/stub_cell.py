@@ -1,21 +1,32 @@
-"""A stub episode for fast runner tests: deterministic, slow enough to be killed."""
+"""A stub episode for fast runner tests: deterministic, raising for one chosen cell so
+the runner's error branch (:func:`run_cell`) runs, and as slow as :data:`DELAY_S` says
+(the kill test raises it so that the sweep is still running when it is killed)."""
 
 from __future__ import annotations
 
 import time
 
+from simroad.experiments.ablate import run_cell
 from simroad.experiments.episode import RECORD_KEYS, format_filters
 
+#: Seconds each stub episode sleeps (set before the sweep; forked workers inherit it).
+DELAY_S = 0.005
+#: The cell whose episode raises: the oracle of seed 13.
+FAILING_SEED, FAILING_DRIVER = 13, "oracle"
 
-def stub_cell(spec):
-    time.sleep(0.05)
-    if spec.seed == 13 and spec.driver == "oracle":
-        raise_in = True
-    else:
-        raise_in = False
+
+def stub_episode(spec):
+    """A fake ``run_episode``: a record whose FNR depends on the seed only."""
+    time.sleep(DELAY_S)
+    if spec.seed == FAILING_SEED and spec.driver == FAILING_DRIVER:
+        raise RuntimeError("boom")
     record = dict.fromkeys(RECORD_KEYS, 0.0)
     record.update(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, filters=format_filters(spec.filters),
                   driver=spec.driver, seed=spec.seed, steps=spec.steps)  # fmt: skip
     record["fnr"] = (spec.seed * 7919 % 101) / 1000.0
-    record["error"] = "RuntimeError: boom" if raise_in else None
     return record
+
+
+def stub_cell(spec):
+    """The real :func:`run_cell` around the stub episode (picklable, top level)."""
+    return run_cell(spec, episode_fn=stub_episode)

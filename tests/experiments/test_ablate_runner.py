@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -19,7 +20,7 @@ from simroad.experiments.grid import AblationGrid, cell_key, load_grid_file
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
-from stub_cell import stub_cell  # noqa: E402
+from stub_cell import FAILING_DRIVER, FAILING_SEED, stub_cell  # noqa: E402
 
 GRID = AblationGrid(
     scenarios=("racetrack",),
@@ -57,18 +58,34 @@ def test_rerun_skips_done_cells_and_repairs_a_torn_line(tmp_path):
     lines = path.read_text().splitlines()
     # Simulate a crash: the last row half-written, one row lost, one duplicated.
     path.write_text("\n".join(lines[:40] + [lines[10]] + [lines[41][: len(lines[41]) // 2]]))
-    t0 = time.perf_counter()
-    records = run_ablation(GRID, out, workers=1, progress=False, cell_fn=stub_cell)
-    assert time.perf_counter() - t0 < 0.05 * 60  # only ~50 cells rerun, not 90
+    rerun = []
+
+    def counting_cell(spec):
+        rerun.append(cell_key(spec))
+        return stub_cell(spec)
+
+    records = run_ablation(GRID, out, workers=1, progress=False, cell_fn=counting_cell)
+    kept = {cell_key(json.loads(line)) for line in lines[:40]}
+    assert len(rerun) == 90 - 40 and kept.isdisjoint(rerun)  # only the lost cells rerun
     rows = _rows(path)
     assert len(rows) == 90 == len({cell_key(r) for r in rows}) == len(records)
 
 
-def test_failed_episode_is_recorded_and_the_sweep_goes_on(tmp_path):
+@pytest.mark.parametrize("workers", [1, 2])
+def test_failed_episode_is_recorded_and_the_sweep_goes_on(tmp_path, workers):
     grid = AblationGrid(scenarios=("racetrack",), noises=("clear",), filters=("none",), seeds=3, seed_start=12, steps=5)
-    records = run_ablation(grid, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    records = run_ablation(grid, tmp_path, workers=workers, progress=False, cell_fn=stub_cell)
     assert len(records) == 6
-    assert sum(1 for r in records if r["error"]) == 1
+    failed = [r for r in records if r["error"]]
+    assert len(failed) == 1
+    row = failed[0]
+    # the failing cell keeps its identity, says what went wrong, and scores nothing
+    assert (row["seed"], row["driver"], row["filters"], row["severity"]) == (FAILING_SEED, FAILING_DRIVER, "none", 0.0)
+    assert row["error"].startswith("RuntimeError: boom\n") and "stub_episode" in row["error"]
+    assert row["steps"] == 0 and math.isnan(row["fnr"]) and math.isnan(row["driving_score"])
+    # every other cell ran normally, and the file holds the same six rows
+    assert all(r["error"] is None and r["steps"] == 5 for r in records if r is not row)
+    assert {cell_key(r) for r in _rows(tmp_path / "results.jsonl")} == {cell_key(s) for s in grid.specs()}
 
 
 def test_a_directory_with_another_grid_is_refused_unless_fresh(tmp_path):
@@ -85,6 +102,8 @@ def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
     script = textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {str(HERE)!r})
+        import stub_cell as stub
+        stub.DELAY_S = 0.05  # slow enough to be killed mid-sweep
         from stub_cell import stub_cell
         from simroad.experiments.ablate import run_ablation
         from simroad.experiments.grid import AblationGrid

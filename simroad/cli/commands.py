@@ -1,0 +1,197 @@
+"""Run each ``simroad`` subcommand: parsed arguments in, one library call, text out.
+
+Each ``cmd_*`` takes the :class:`argparse.Namespace` of its subcommand (see
+:mod:`simroad.cli.parser`), builds the library's config objects, calls the library
+and prints the outcome; it returns the exit status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from simroad.experiments.ablate import run_ablation
+from simroad.experiments.demo import write_videos
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
+from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
+from simroad.experiments.export import export_frames
+from simroad.experiments.figures import camera_figure
+from simroad.experiments.filter_effect import filter_effect_table, format_filter_effect
+from simroad.experiments.gate import check_requirements, parse_requirement
+from simroad.experiments.grid import AblationGrid, load_grid_file
+from simroad.experiments.report import build_report
+from simroad.experiments.training import train_detector
+
+__all__ = [
+    "ABLATE_GRID_FLAGS",
+    "RUN_KEYS",
+    "camera_options",
+    "cmd_ablate",
+    "cmd_episode",
+    "cmd_evaluate",
+    "cmd_figure",
+    "cmd_filter_effect",
+    "cmd_frames",
+    "cmd_report",
+    "cmd_train",
+    "cmd_videos",
+    "seed_range",
+]
+
+#: ``simroad ablate`` flags that set AblationGrid fields (None: not given).
+ABLATE_GRID_FLAGS = ("scenarios", "noises", "severities", "filters", "seeds", "seed_start", "steps")
+#: Keys of ``simroad ablate`` that configure the run, not the grid.
+RUN_KEYS = ("workers", "backend", "ray_address", "out")
+
+
+def seed_range(start: int, count: int) -> range:
+    """``count`` seeds from ``start``."""
+    return range(start, start + count)
+
+
+def camera_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The camera keywords of the environment options (``--width`` ...)."""
+    return {"width": args.width, "height": args.height, "hfov_deg": args.hfov, "pitch_deg": args.pitch}
+
+
+def cmd_frames(args: argparse.Namespace) -> int:
+    """``simroad frames``: export frames, GT road masks and meta.json."""
+    env_kwargs = {"scenario": args.scenario, "noise": args.noise, "severity": args.severity,
+                  **camera_options(args), "traffic": not args.no_traffic}  # fmt: skip
+    out = export_frames(
+        args.out, seed=args.seed, count=args.count, every=args.every, env_kwargs=env_kwargs, progress=not args.quiet
+    )
+    print(f"wrote {args.count} frames, road masks and meta.json to {out}")
+    return 0
+
+
+def cmd_episode(args: argparse.Namespace) -> int:
+    """``simroad episode``: run one episode, print its record, check ``--require`` gates."""
+    requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
+    spec = EpisodeSpec(
+        scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
+        driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
+        route_m=args.route_m, env_options=camera_options(args),
+    )  # fmt: skip
+    record = run_episode(spec, video=args.video)
+    if args.json:
+        print(json.dumps(record))
+    else:
+        for key in RECORD_KEYS:
+            value = record[key]
+            print(f"{key:>18}: {value:.4g}" if isinstance(value, float) else f"{key:>18}: {value}")
+    failures = check_requirements(record, requirements)
+    for msg in failures:
+        print(f"simroad episode: {msg}", file=sys.stderr)
+    return 1 if failures else 0
+
+
+def cmd_ablate(args: argparse.Namespace) -> int:
+    """``simroad ablate``: run (or resume) a sweep from flags and/or ``--config``, then its report."""
+    opts = load_grid_file(args.config) if args.config else {}
+    for key in (*ABLATE_GRID_FLAGS, *RUN_KEYS):
+        value = getattr(args, key)
+        if value is not None:
+            opts[key] = value
+    run = {k: opts.pop(k) for k in RUN_KEYS if k in opts}
+    if "out" not in run:
+        print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
+        return 2
+    out = run.pop("out")
+    records = run_ablation(AblationGrid(**opts), out, **run, fresh=args.fresh, progress=not args.quiet)
+    paths = build_report(out)
+    failed = sum(1 for r in records if r.get("error"))
+    print(
+        f"{len(records)} episodes in {out}/results.jsonl ({failed} failed); report: "
+        + ", ".join(str(p) for p in paths.values())
+    )
+    return 0
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    """``simroad report``: rebuild a sweep's tables and figures."""
+    paths = build_report(args.dir)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    """``simroad train-detector``: train a detector and write it to ``--out``."""
+    path = train_detector(args.out, seeds=seed_range(args.seed_start, args.seeds), frames_per_seed=args.frames)
+    print(f"wrote {path}; use it with RoadDetector.load({str(path)!r}) or --model {path}")
+    return 0
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    """``simroad evaluate-detector``: score filter settings on frames; optional figure."""
+    rows, frows = evaluate_detector(
+        args.filters.split(","),
+        scenarios=args.scenario.split(","),
+        noise=args.noise,
+        severity=args.severity,
+        seeds=seed_range(args.seed_start, args.seeds),
+        frames_per_seed=args.frames,
+        images=args.images or None,
+        masks=args.masks or None,
+        model=args.model,
+    )
+    if args.json:
+        print(json.dumps({"detector": rows, "filter_masks": frows}))
+    else:
+        print(format_table(rows, percent=("fnr", "fpr")))
+        if frows:
+            print()
+            print(format_table(frows))
+    if args.figure:
+        print(f"wrote {qualitative_figure(args.figure)}")
+    return 0
+
+
+def cmd_filter_effect(args: argparse.Namespace) -> int:
+    """``simroad filter-effect``: each filter with and without on its weather."""
+    from simroad.detector import RoadDetector  # scikit-learn: only for this command
+
+    seeds = seed_range(args.seed_start, args.seeds)
+    cache: dict = {}
+    out = []
+    for severity in (float(s) for s in args.severity.split(",")):
+        for variant in args.variant.split(","):
+            factory = lambda f, v=variant: RoadDetector.pretrained(filters=f, filter_variant=v)  # noqa: E731
+            rows = filter_effect_table(seeds=seeds, frames=args.frames, severity=severity, noises=args.noises.split(","),
+                                       detector_factory=factory, cache=cache)  # fmt: skip
+            out.append({"severity": severity, "variant": variant, "rows": rows})
+            if not args.json:
+                print(f"severity {severity:g}, {variant} filters")
+                print(format_filter_effect(rows))
+                print()
+    if args.json:
+        print(json.dumps(out, default=list))
+    return 0
+
+
+def cmd_figure(args: argparse.Namespace) -> int:
+    """``simroad figure``: draw a README figure."""
+    if args.what == "camera":
+        path = camera_figure(args.out, seed=args.seed)
+    else:
+        from simroad.noise.gallery import render_gallery
+
+        path = render_gallery(args.out, seed=args.seed)
+    print(f"wrote {path}")
+    return 0
+
+
+def cmd_videos(args: argparse.Namespace) -> int:
+    """``simroad videos``: one annotated GIF per noise."""
+    paths = write_videos(
+        args.out,
+        scenario=args.scenario,
+        seed=args.seed,
+        steps=args.steps,
+        severity=args.severity,
+        progress=not args.quiet,
+    )
+    print("videos: " + ", ".join(str(p) for p in paths))
+    return 0

@@ -1,0 +1,320 @@
+"""Define the ``simroad`` subcommands and their options, every default read from the library.
+
+Defaults come from the dataclasses and function signatures that own them
+(:class:`EpisodeSpec`, :class:`AblationGrid`, :class:`CameraConfig`, ...), and the
+names listed in the help from the library's registries, so the command line never
+restates a number.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from simroad.camera.geometry import CameraConfig
+from simroad.cli import commands
+from simroad.control.drivers import DRIVER_NAMES
+
+# after merge: from simroad.filters import FILTER_VARIANTS, apply_filters (and no scikit-learn import here)
+from simroad.detector.detector import FILTER_VARIANTS, apply_filters
+from simroad.envs import SCENARIO_NAMES  # after merge: from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.envs.config import RoadCamConfig
+from simroad.experiments.ablate import BACKENDS, run_ablation
+from simroad.experiments.demo import write_videos
+
+# after merge: from simroad.filters import FILTERS, format_filters
+from simroad.experiments.episode import FILTER_NAMES as FILTERS
+from simroad.experiments.episode import EpisodeSpec, format_filters
+from simroad.experiments.evaluate import evaluate_detector
+from simroad.experiments.export import export_frames
+from simroad.experiments.figures import camera_figure
+from simroad.experiments.filter_effect import filter_effect_table
+from simroad.experiments.grid import AblationGrid
+from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
+from simroad.noise import NOISE_NAMES
+
+__all__ = ["build_parser"]
+
+
+def _default(owner: Callable[..., Any], name: str) -> Any:
+    """The default of dataclass field or keyword parameter ``name`` of ``owner``."""
+    if dataclasses.is_dataclass(owner):
+        for f in dataclasses.fields(owner):
+            if f.name == name:
+                if f.default_factory is not dataclasses.MISSING:
+                    return f.default_factory()
+                return f.default
+    return inspect.signature(owner).parameters[name].default
+
+
+def _names(values: Sequence[object]) -> str:
+    return ", ".join(str(v) for v in values)
+
+
+def _add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) -> None:
+    """Weather, scenario and camera options; their defaults are ``defaults``' fields."""
+    g = p.add_argument_group("environment")
+    scenario, noise, severity = (_default(defaults, k) for k in ("scenario", "noise", "severity"))
+    g.add_argument("--scenario", default=scenario, help=f"{_names(SCENARIO_NAMES)} (default: {scenario})")
+    g.add_argument(
+        "--noise",
+        default=noise,
+        help=f"{_names(NOISE_NAMES)}, or a composition like rain+glare (default: {noise})",
+    )
+    g.add_argument("--severity", type=float, default=severity, help=f"weather severity in [0, 1] (default: {severity})")
+    cam = {k: _default(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg")}
+    g.add_argument("--width", type=int, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
+    g.add_argument(
+        "--height", type=int, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
+    )
+    g.add_argument(
+        "--hfov",
+        type=float,
+        default=cam["hfov_deg"],
+        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
+    )
+    g.add_argument(
+        "--pitch",
+        type=float,
+        default=cam["pitch_deg"],
+        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
+    )
+    g.add_argument("--no-traffic", action="store_true", help="no other vehicles")
+
+
+def _shown(value: Any) -> str:
+    """A default as the user would type it (lists comma-joined)."""
+    return ",".join(str(v) for v in value) if isinstance(value, (tuple, list)) else f"{value}"
+
+
+def _add_frames(sub: Any) -> None:
+    p = sub.add_parser(
+        "frames",
+        help="export camera frames and ground-truth road masks",
+        description="Drive the ground-truth autopilot and write frame_NNNN.png, road_NNNN.png (GT 0/255) and meta.json (camera intrinsics, pose per frame).",
+    )
+    _add_env_options(p, RoadCamConfig)
+    d = {k: _default(export_frames, k) for k in ("seed", "count", "every")}
+    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument("--count", type=int, default=d["count"], help=f"number of frames (default: {d['count']})")
+    p.add_argument("--every", type=int, default=d["every"], help=f"policy steps between frames (default: {d['every']})")
+    p.add_argument("--out", required=True, help="output directory (created)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=commands.cmd_frames)
+
+
+def _add_episode(sub: Any) -> None:
+    p = sub.add_parser(
+        "episode",
+        help="run one closed-loop episode and score it",
+        description="Drive one episode: the camera frame goes to the driver (the road detector + lane keeping, or the oracle on the ground-truth mask); the episode is scored on the mask (FNR/FPR) and on safety. Exit status 1 if a --require fails.",
+    )
+    _add_env_options(p, EpisodeSpec)
+    d = {k: _default(EpisodeSpec, k) for k in ("filters", "driver", "seed", "steps")}
+    filters = format_filters(d["filters"])
+    p.add_argument(
+        "--filters",
+        default=filters,
+        help=f"detector filters: none, all, or names joined by '+' ({_names(FILTERS)}), e.g. shadow+light (default: {filters})",
+    )
+    p.add_argument("--driver", default=d["driver"], help=f"{_names(DRIVER_NAMES)} (default: {d['driver']})")
+    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument(
+        "--steps",
+        type=int,
+        default=d["steps"],
+        help=f"maximum policy steps, one camera frame and action each (default: {d['steps']})",
+    )
+    p.add_argument(
+        "--route-m",
+        type=float,
+        default=None,
+        help="route length in m (default: the scenario's route -- one racetrack lap or 1 km -- capped at what 80%% of the cruise speed covers in --steps)",
+    )
+    p.add_argument("--video", default=None, help="write an .mp4 or .gif of the episode")
+    p.add_argument("--json", action="store_true", help="print one JSON object with the record")
+    p.add_argument(
+        "--require",
+        action="append",
+        default=[],
+        metavar="KEY<=VALUE",
+        help="a gate such as 'offroad_fraction<=0.01' (any record key; <, <=, >, >=); repeatable",
+    )
+    p.set_defaults(func=commands.cmd_episode)
+
+
+def _add_ablate(sub: Any) -> None:
+    p = sub.add_parser(
+        "ablate",
+        help="run an ablation sweep (resumable) and write its report",
+        description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
+    )
+    d = {k: _shown(_default(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
+    p.add_argument("--config", help="a TOML file with the same names as keys (flags override it)")
+    p.add_argument("--scenarios", help=f"comma-separated: {_names(SCENARIO_NAMES)} (default: {d['scenarios']})")
+    p.add_argument(
+        "--noises",
+        help=f"comma-separated: {_names(NOISE_NAMES)} or compositions like rain+glare (default: {d['noises']})",
+    )
+    p.add_argument("--severities", help=f"comma-separated values in [0, 1] (default: {d['severities']})")
+    p.add_argument(
+        "--filters",
+        help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTERS)}) (default: {d['filters']})",
+    )
+    p.add_argument("--seeds", type=int, help=f"number of seeds (default: {d['seeds']})")
+    p.add_argument("--seed-start", dest="seed_start", type=int, help=f"first seed (default: {d['seed_start']})")
+    p.add_argument("--steps", type=int, help=f"policy steps per episode (default: {d['steps']})")
+    p.add_argument("--workers", type=int, help="parallel episodes (default: all cores)")
+    p.add_argument("--backend", help=f"{_names(BACKENDS)} (default: {_default(run_ablation, 'backend')})")
+    p.add_argument("--ray-address", dest="ray_address", help="Ray cluster address (with --backend ray)")
+    p.add_argument("--out", help="output directory")
+    p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=commands.cmd_ablate)
+
+    p = sub.add_parser(
+        "report",
+        help="rebuild a sweep's tables and figures from results.jsonl",
+        description="Rebuild summary.csv, summary.md, summary.json, error_rates.png and safety.png from DIR/results.jsonl.",
+    )
+    p.add_argument("dir", help="the sweep's output directory")
+    p.set_defaults(func=commands.cmd_report)
+
+
+def _add_detector(sub: Any) -> None:
+    p = sub.add_parser(
+        "train-detector",
+        help="train a road detector like the shipped one",
+        description="Render clean frames of all three scenarios (one world palette per seed), fit the default SVM detector and save it as npz (no pickle) to --out; the destination is checked before training. Use the file with RoadDetector.load(PATH) or evaluate-detector --model PATH.",
+    )
+    p.add_argument("--out", default=DEFAULT_MODEL_FILE, help=f"output .npz (default: ./{DEFAULT_MODEL_FILE})")
+    p.add_argument(
+        "--seeds", type=int, default=len(TRAIN_SEEDS), help=f"number of training worlds (default: {len(TRAIN_SEEDS)})"
+    )
+    p.add_argument(
+        "--seed-start",
+        type=int,
+        default=TRAIN_SEEDS[0],
+        help=f"first seed (default: {TRAIN_SEEDS[0]}; evaluation uses seeds >= 100)",
+    )
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=TRAIN_FRAMES_PER_SEED,
+        help=f"frames per scenario and seed (default: {TRAIN_FRAMES_PER_SEED})",
+    )
+    p.set_defaults(func=commands.cmd_train)
+
+    d = {
+        k: _default(evaluate_detector, k)
+        for k in ("settings", "scenarios", "noise", "severity", "seeds", "frames_per_seed")
+    }
+    p = sub.add_parser(
+        "evaluate-detector",
+        help="score the detector per filter setting (FNR, FPR, IoU, F1)",
+        description="Score the shipped detector (or --model) on rendered frames (held-out seeds) or on a folder of real images and masks, for each filter setting; also score the filters' own masks against the ground-truth noise masks.",
+    )
+    p.add_argument(
+        "--scenario",
+        default=_shown(d["scenarios"]),
+        help=f"comma-separated scenarios (default: {_shown(d['scenarios'])})",
+    )
+    p.add_argument("--noise", default=d["noise"], help=f"weather of the rendered frames (default: {d['noise']})")
+    p.add_argument(
+        "--severity", type=float, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
+    )
+    p.add_argument(
+        "--filters",
+        default=_shown(d["settings"]),
+        help=f"comma-separated filter settings (default: {_shown(d['settings'])})",
+    )
+    p.add_argument(
+        "--seeds", type=int, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
+    )
+    p.add_argument("--seed-start", type=int, default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    p.add_argument(
+        "--frames",
+        type=int,
+        default=d["frames_per_seed"],
+        help=f"frames per scenario and seed (default: {d['frames_per_seed']})",
+    )
+    p.add_argument("--images", help="folder of real images (instead of rendered frames)")
+    p.add_argument("--masks", help="folder of their road masks (same file names, or road_N for frame_N)")
+    p.add_argument("--model", help="a detector .npz (e.g. from train-detector) to evaluate instead of the shipped one")
+    p.add_argument("--figure", help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG")
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=commands.cmd_evaluate)
+
+    d = {k: _default(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}
+    variant = _default(apply_filters, "variant")
+    p = sub.add_parser(
+        "filter-effect",
+        help="does each filter earn its place? FNR/FPR with and without it on its weather",
+        description="Render held-out worlds of all three scenarios under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels.",
+    )
+    p.add_argument(
+        "--severity",
+        default=_shown(d["severity"]),
+        help=f"comma-separated severities in [0, 1] (default: {d['severity']})",
+    )
+    p.add_argument(
+        "--noises", default=_shown(d["noises"]), help=f"comma-separated noises (default: {_shown(d['noises'])})"
+    )
+    p.add_argument(
+        "--variant",
+        default=variant,
+        help=f"comma-separated filter variants: {_names(FILTER_VARIANTS)} (default: {variant})",
+    )
+    p.add_argument(
+        "--seeds", type=int, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
+    )
+    p.add_argument("--seed-start", type=int, default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    p.add_argument(
+        "--frames", type=int, default=d["frames"], help=f"frames per scenario and seed (default: {d['frames']})"
+    )
+    p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    p.set_defaults(func=commands.cmd_filter_effect)
+
+
+def _add_pictures(sub: Any) -> None:
+    p = sub.add_parser(
+        "figure",
+        help="draw a documentation figure",
+        description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).",
+    )
+    p.add_argument("what", choices=("camera", "weather"), help="which figure")
+    p.add_argument("--out", required=True, help="output PNG path")
+    seed = _default(camera_figure, "seed")
+    p.add_argument("--seed", type=int, default=seed, help=f"seed (default: {seed})")
+    p.set_defaults(func=commands.cmd_figure)
+
+    d = {k: _default(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
+    p = sub.add_parser(
+        "videos",
+        help="write the demo's videos: one detector episode per noise",
+        description="Drive one short episode per noise with the detector and all filters and write OUT/NOISE.gif: the camera view with the predicted road mask (green), the ground-truth outline (yellow) and a bird's-eye inset with the trajectory.",
+    )
+    p.add_argument("--out", required=True, help="output directory (created)")
+    p.add_argument("--scenario", default=d["scenario"], help=f"{_names(SCENARIO_NAMES)} (default: {d['scenario']})")
+    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument("--steps", type=int, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")
+    p.add_argument(
+        "--severity", type=float, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=commands.cmd_videos)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``simroad`` argument parser with every subcommand."""
+    parser = argparse.ArgumentParser(
+        prog="simroad", description="Closed-loop camera road detection testbed in bad weather."
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures):
+        add(sub)
+    return parser

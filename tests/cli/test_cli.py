@@ -1,0 +1,90 @@
+"""The command line: help on every subcommand, ``python -m simroad``, defaults read from
+the library, the demo's videos through the same CLI."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+import subprocess
+import sys
+
+import imageio.v2 as imageio
+import pytest
+
+from simroad.camera.geometry import CameraConfig
+from simroad.cli.main import main
+from simroad.cli.parser import build_parser
+from simroad.experiments.demo import DEMO_NOISES, write_videos
+from simroad.experiments.episode import EpisodeSpec
+from simroad.experiments.export import export_frames
+from simroad.experiments.grid import AblationGrid
+
+
+def _subcommands() -> dict[str, argparse.ArgumentParser]:
+    parser = build_parser()
+    (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return dict(action.choices)
+
+
+SUBCOMMANDS = sorted(_subcommands())
+
+
+def test_the_parser_has_the_documented_subcommands():
+    assert set(SUBCOMMANDS) >= {"frames", "episode", "ablate", "report", "train-detector", "evaluate-detector",
+                                "filter-effect", "figure", "videos"}  # fmt: skip
+
+
+@pytest.mark.parametrize("cmd", SUBCOMMANDS)
+def test_every_subcommand_has_help(cmd, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main([cmd, "--help"])
+    assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: simroad {cmd}")
+    sub = _subcommands()[cmd]
+    for action in sub._actions:  # every option explains itself
+        assert action.help, f"{cmd} {action.option_strings or action.dest} has no help"
+
+
+@pytest.mark.slow  # a fresh interpreter importing simroad: seconds
+def test_python_dash_m_simroad_runs_the_cli(tmp_path):
+    # one subprocess (imports cost seconds): __main__ dispatches to main and its exit status
+    res = subprocess.run([sys.executable, "-m", "simroad", "frames", "--scenario", "higway", "--out", str(tmp_path / "x")],
+                         capture_output=True, text=True)  # fmt: skip
+    assert res.returncode == 2 and "simroad frames: error: scenario" in res.stderr
+    assert "Did you mean 'highway'" in res.stderr and not (tmp_path / "x").exists()
+
+
+def _field_defaults(cls) -> dict:
+    return {f.name: f.default for f in dataclasses.fields(cls) if f.default is not dataclasses.MISSING}
+
+
+def test_defaults_are_the_librarys():
+    spec, cam = _field_defaults(EpisodeSpec), _field_defaults(CameraConfig)
+    args = build_parser().parse_args(["episode"])
+    assert (args.scenario, args.noise, args.severity) == (spec["scenario"], spec["noise"], spec["severity"])
+    assert (args.driver, args.seed, args.steps, args.filters) == (spec["driver"], spec["seed"], spec["steps"], "none")
+    assert (args.width, args.height, args.hfov, args.pitch) == (cam["width"], cam["height"], cam["hfov_deg"], cam["pitch_deg"])  # fmt: skip
+    frames = build_parser().parse_args(["frames", "--out", "x"])
+    sig = inspect.signature(export_frames).parameters
+    assert (frames.seed, frames.count, frames.every) == tuple(sig[k].default for k in ("seed", "count", "every"))
+    # ablate flags stay unset so a --config file can fill them; the grid supplies the rest
+    ablate = build_parser().parse_args(["ablate"])
+    assert all(getattr(ablate, k) is None for k in ("scenarios", "seeds", "steps", "filters"))
+    grid = _field_defaults(AblationGrid)
+    help_text = _subcommands()["ablate"].format_help()
+    assert f"(default: {grid['seeds']})" in help_text and f"(default: {grid['steps']})" in help_text
+    videos = build_parser().parse_args(["videos", "--out", "x"])
+    sig = inspect.signature(write_videos).parameters
+    assert (videos.scenario, videos.steps, videos.severity) == tuple(sig[k].default for k in ("scenario", "steps", "severity"))  # fmt: skip
+
+
+@pytest.mark.slow
+def test_videos_subcommand_writes_one_gif_per_noise(tmp_path, capsys):
+    out = tmp_path / "videos"
+    assert main(["videos", "--out", str(out), "--steps", "2", "--quiet"]) == 0
+    for noise in DEMO_NOISES:
+        frames = imageio.mimread(out / f"{noise}.gif")
+        assert len(frames) == 2 and frames[0].shape[:2] == (180, 320)
+    assert capsys.readouterr().out.startswith("videos: ")
