@@ -29,7 +29,7 @@ def hsi_intensity(total: np.ndarray) -> np.ndarray:
     return total * total.dtype.type(1.0 / 3.0)
 
 
-def hsi_saturation(total: np.ndarray, darkest: np.ndarray, *, tiny: float) -> np.ndarray:
+def hsi_saturation(total: np.ndarray, darkest: np.ndarray, *, tiny: float | np.floating) -> np.ndarray:
     """Saturation ``S = 1 - 3 min(R, G, B) / (R + G + B)`` (eq. 11).
 
     Parameters

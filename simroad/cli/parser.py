@@ -17,23 +17,18 @@ from typing import Any
 from simroad.camera.geometry import CameraConfig
 from simroad.cli import commands
 from simroad.control.drivers import DRIVER_NAMES
-
-# after merge: from simroad.filters import FILTER_VARIANTS, apply_filters (and no scikit-learn import here)
-from simroad.detector.detector import FILTER_VARIANTS, apply_filters
-from simroad.envs import SCENARIO_NAMES  # after merge: from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.envs.config import RoadCamConfig
+from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
-
-# after merge: from simroad.filters import FILTERS, format_filters
-from simroad.experiments.episode import FILTER_NAMES as FILTERS
-from simroad.experiments.episode import EpisodeSpec, format_filters
+from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.evaluate import evaluate_detector
 from simroad.experiments.export import export_frames
 from simroad.experiments.figures import camera_figure
 from simroad.experiments.filter_effect import filter_effect_table
 from simroad.experiments.grid import AblationGrid
 from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
+from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters
 from simroad.noise import NOISE_NAMES
 
 __all__ = ["build_parser"]
@@ -118,7 +113,7 @@ def _add_episode(sub: Any) -> None:
     p.add_argument(
         "--filters",
         default=filters,
-        help=f"detector filters: none, all, or names joined by '+' ({_names(FILTERS)}), e.g. shadow+light (default: {filters})",
+        help=f"detector filters: none, all, or names joined by '+' ({_names(FILTER_NAMES)}), e.g. shadow+light (default: {filters})",
     )
     p.add_argument("--driver", default=d["driver"], help=f"{_names(DRIVER_NAMES)} (default: {d['driver']})")
     p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
@@ -162,7 +157,7 @@ def _add_ablate(sub: Any) -> None:
     p.add_argument("--severities", help=f"comma-separated values in [0, 1] (default: {d['severities']})")
     p.add_argument(
         "--filters",
-        help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTERS)}) (default: {d['filters']})",
+        help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTER_NAMES)}) (default: {d['filters']})",
     )
     p.add_argument("--seeds", type=int, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=int, help=f"first seed (default: {d['seed_start']})")

@@ -144,7 +144,7 @@ class ColourTable:
         """Bit-packed arrays for :func:`numpy.savez` (no pickle)."""
         return {
             "lut": np.packbits(self.coarse),
-            "lut_bits": np.int64(self.bits),
+            "lut_bits": np.asarray(self.bits, dtype=np.int64),
             "lut_refined_cells": self.refined_cells,
             "lut_fine": np.packbits(self.fine.reshape(-1)),
         }

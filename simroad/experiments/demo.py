@@ -14,9 +14,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-# after merge: from simroad.filters import parse_filters
-from simroad.experiments.episode import EpisodeSpec, parse_filters, run_episode
+from simroad.experiments.episode import EpisodeSpec, run_episode
 from simroad.experiments.export import ensure_writable_dir
+from simroad.filters import parse_filters
 
 __all__ = ["DEMO_NOISES", "write_videos"]
 

@@ -18,11 +18,9 @@ import numpy as np
 
 from simroad._validation import SimroadError
 from simroad.envs import SCENARIO_NAMES
-
-# after merge: from simroad.filters import format_filters, parse_filters
-from simroad.experiments.episode import format_filters, parse_filters
 from simroad.experiments.frames import FrameSet, collect_frames
 from simroad.experiments.training import HELD_OUT_SEEDS
+from simroad.filters import format_filters, parse_filters
 from simroad.metrics.mask import MaskScore
 
 __all__ = [

@@ -164,10 +164,10 @@ class RoadIndex:
             if box[1] > 0 or box[3] < 0:
                 return None
             return np.array([rng.uniform(box[0], box[2]), 0.0]), 0.0
-        cands = []
+        cands: list[tuple[np.ndarray, int]] = []
         for c in self.centres:
             inside = np.flatnonzero((c[:, 0] >= box[0]) & (c[:, 0] < box[2]) & (c[:, 1] >= box[1]) & (c[:, 1] < box[3]))
-            cands += [(c, i) for i in inside]
+            cands += [(c, int(i)) for i in inside]
         if not cands:
             return None
         c, i = cands[int(rng.integers(len(cands)))]

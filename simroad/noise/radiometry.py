@@ -60,7 +60,7 @@ def linear_to_srgb(lin: np.ndarray, dtype: np.dtype | type = np.uint8) -> np.nda
     """
     # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
     x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
-    x *= np.float32(1.0 / GAMMA)
+    np.multiply(x, np.float32(1.0 / GAMMA), out=x)
     x = cv2.exp(x)
     if np.dtype(dtype) == np.uint8:
         return cv2.convertScaleAbs(x, alpha=255.0)
