@@ -27,7 +27,6 @@ from highway_env.envs.highway_env import HighwayEnv
 from highway_env.envs.racetrack_env import RacetrackEnv
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
-from simroad.envs.winding import WindingRoadEnv
 
 __all__ = [
     "OPEN_ROUTE_M",
@@ -156,6 +155,8 @@ def _highway(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: 
 
 
 def _winding(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+    from simroad.envs.winding import WindingRoadEnv  # winding reads its defaults from SCENARIOS: a real cycle
+
     config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
     return WindingRoadEnv(config={"lane_width": spec.lane_width_m, **config})
 

@@ -18,6 +18,8 @@ from highway_env.road.lane import CircularLane, LineType, StraightLane
 from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
+from simroad.envs.scenarios import get_scenario
+
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments"]
 
 _S, _C, _N = LineType.STRIPED, LineType.CONTINUOUS, LineType.NONE
@@ -81,7 +83,7 @@ def generate_segments(
     return segments
 
 
-def build_winding_network(segments: list[Segment], *, lane_width_m: float = 3.5) -> tuple[RoadNetwork, list[str]]:
+def build_winding_network(segments: list[Segment], *, lane_width_m: float) -> tuple[RoadNetwork, list[str]]:
     """Build a two-lane network: forward lanes ``f{k} -> f{k+1}``, oncoming ``o{k+1} -> o{k}``.
 
     Returns the network and the ordered forward node names.
@@ -145,21 +147,21 @@ class WindingRoadEnv(AbstractEnv):
 
     @classmethod
     def default_config(cls) -> dict:
+        spec = get_scenario("winding")  # the defaults are the winding scenario's facts
         config = super().default_config()
         utils.update_config(
             config,
             {
                 "observation": {"type": "Kinematics"},
                 "action": {"type": "ContinuousAction", "longitudinal": False, "lateral": True},
-                "simulation_frequency": 15,
-                "policy_frequency": 5,
+                "simulation_frequency": spec.simulation_hz,
+                "policy_frequency": spec.policy_hz,
                 "duration": 200,
                 "road_length": 2000.0,
-                "lane_width": 3.5,
+                "lane_width": spec.lane_width_m,
                 "min_radius": 45.0,
-                "leading_vehicles": 1,
-                "oncoming_vehicles": 3,
-                "ego_speed": 15.0,
+                **spec.traffic_vehicles,
+                "ego_speed": spec.cruise_speed_m_s,
                 "collision_reward": -1,
             },
         )

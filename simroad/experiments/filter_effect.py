@@ -18,14 +18,14 @@ from collections.abc import Callable, Iterable, Sequence
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, collect_frames
-from simroad.filters import FILTERS, check_filters
+from simroad.filters import FILTER_REGISTRY, FILTERS, check_filters
 from simroad.metrics.mask import MaskScore
 
 __all__ = ["FILTER_NOISE", "filter_effect", "filter_effect_table", "format_filter_effect"]
 
 #: The weather each filter is meant to remove (the issue's protocol).
-FILTER_NOISE = {"shadow": ("shadow",), "rain_snow": ("rain", "snow"), "light": ("glare",)}
-_NOISES = ("shadow", "rain", "snow", "glare")
+FILTER_NOISE = {name: spec.weathers for name, spec in FILTER_REGISTRY.items()}
+_NOISES = tuple(noise for weathers in FILTER_NOISE.values() for noise in weathers)
 
 DetectorFactory = Callable[[tuple[str, ...]], object]
 

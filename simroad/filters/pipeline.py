@@ -35,6 +35,7 @@ from simroad.filters.haze import _haze_planes, remove_haze
 from simroad.filters.highlights import _highlights_planes, remove_highlights
 from simroad.filters.rain_snow import _rain_snow_planes, remove_rain_snow
 from simroad.filters.shadow import _shadows_planes, remove_shadows
+from simroad.noise import NOISE_NAMES
 
 __all__ = [
     "FILTERS",
@@ -131,12 +132,20 @@ class FilterSpec:
     improved : tuple of FilterStep or None, optional
         The steps of the ``"improved"`` variant; None (default) when it is the
         paper's pipeline unchanged.
+    weathers : tuple of str, optional
+        The noises (``simroad.noise`` names) the filter is built to undo;
+        ``simroad filter-effect`` measures it on each of them.
     """
 
     name: str
     rank: int
     paper: tuple[FilterStep, ...]
     improved: tuple[FilterStep, ...] | None = None
+    weathers: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for noise in self.weathers:
+            check_choice("weathers", noise, NOISE_NAMES)
 
     def steps(self, variant: str) -> tuple[FilterStep, ...]:
         """The pipeline of ``variant`` (``"improved"`` or ``"paper"``)."""
@@ -159,7 +168,7 @@ FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
     {
         spec.name: spec
         for spec in (
-            FilterSpec("shadow", rank=2, paper=(_step(remove_shadows),)),
+            FilterSpec("shadow", rank=2, paper=(_step(remove_shadows),), weathers=("shadow",)),
             FilterSpec(
                 "rain_snow",
                 rank=0,
@@ -168,8 +177,15 @@ FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
                     _step(remove_haze),
                     _step(remove_rain_snow, radius=3, tolerance=0.07, achromatic=True, protect=5),
                 ),
+                weathers=("rain", "snow"),
             ),
-            FilterSpec("light", rank=1, paper=(_step(remove_highlights),), improved=(_step(remove_glare),)),
+            FilterSpec(
+                "light",
+                rank=1,
+                paper=(_step(remove_highlights),),
+                improved=(_step(remove_glare),),
+                weathers=("glare",),
+            ),
         )
     }
 )

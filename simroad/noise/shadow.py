@@ -49,7 +49,7 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import check_in_range
+from simroad._validation import SimroadError, check_in_range
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
 from simroad.noise._occluders import Occluders, RoadIndex, Shadows, place_cell, prism_shadows
 from simroad.noise.context import FrameState
@@ -293,7 +293,8 @@ class ShadowModel(NoiseModel):
 
     def illumination(self, state: FrameState) -> None:
         cover = self._coverage
-        assert cover is not None  # set by prepare(), which runs before every frame's stages
+        if cover is None:
+            raise SimroadError("ShadowModel.illumination() ran before prepare(); run the model through apply().")
         r = state.ground_rows
         t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
         k = shadow_factor(self.params.sun_sky_ratio_rgb, self.sun[1], t_sun)

@@ -129,3 +129,15 @@ def test_parse_and_format_filters():
         parse_filters("light+light")
     with pytest.raises(SimroadError, match="filters"):
         parse_filters("all+shadow")
+
+
+def test_every_filter_names_the_weathers_it_undoes():
+    from simroad.filters import FILTER_REGISTRY
+    from simroad.noise import NOISE_NAMES
+
+    for spec in FILTER_REGISTRY.values():
+        assert spec.weathers, spec.name
+        assert set(spec.weathers) <= set(NOISE_NAMES), spec.name
+    # Each of the paper's noises has exactly one filter meant for it.
+    claimed = [w for spec in FILTER_REGISTRY.values() for w in spec.weathers]
+    assert sorted(claimed) == sorted({"shadow", "rain", "snow", "glare"})
