@@ -16,6 +16,7 @@ import numpy as np
 
 __all__ = [
     "SimroadError",
+    "check_array",
     "check_bool",
     "check_choice",
     "check_finite_number",
@@ -165,14 +166,69 @@ def check_image(
     if h < min_size or w < min_size:
         raise SimroadError(f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height).")
     if image.dtype.kind == "f":
-        if not np.isfinite(image).all():
-            raise SimroadError(f"{name}: contains NaN or infinite values; replace them first.")
+        _check_finite(name, image)
         lo, hi = float(image.min()), float(image.max())
         if lo < 0.0 or hi > 1.0:
             raise SimroadError(
                 f"{name}: float images must lie in [0, 1], got values in [{lo:g}, {hi:g}]. Divide uint8 images by 255."
             )
     return image
+
+
+def _check_finite(name: str, array: np.ndarray) -> None:
+    """Raise naming ``name`` if the float ``array`` holds NaN or infinite values."""
+    finite = np.isfinite(array)
+    if not finite.all():
+        bad = int(array.size - np.count_nonzero(finite))
+        raise SimroadError(
+            f"{name}: expected finite values, got {bad} NaN or infinite value(s). "
+            "Replace them first, e.g. with numpy.nan_to_num(...)."
+        )
+
+
+def check_array(
+    name: str,
+    array: Any,
+    *,
+    dtype: str | tuple[str, ...] = ("float32", "float64"),
+    ndim: int | tuple[int, ...] = (1, 2, 3),
+) -> np.ndarray:
+    """Check a non-empty numeric array of given dtypes and dimensions, finite if float; return it (not copied).
+
+    Unlike :func:`check_image` the values may lie anywhere (no [0, 1] range), so
+    this suits intermediate quantities such as box-filter inputs or SVM support
+    vectors.
+
+    Parameters
+    ----------
+    name : str
+        The parameter name used in error messages.
+    array : ndarray
+        The array to check; lists are refused (convert with ``numpy.asarray``).
+    dtype : str or tuple of str
+        Accepted dtype names.
+    ndim : int or tuple of int
+        Accepted numbers of dimensions.
+    """
+    if not isinstance(array, np.ndarray):
+        raise SimroadError(
+            f"{name}: expected a numpy array, got {type(array).__name__}. Convert it with numpy.asarray(...)."
+        )
+    dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
+    if array.dtype.name not in dtypes:
+        raise SimroadError(
+            f"{name}: expected dtype {' or '.join(dtypes)}, got {array.dtype}. Convert with .astype(np.{dtypes[0]})."
+        )
+    dims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
+    if array.ndim not in dims:
+        raise SimroadError(
+            f"{name}: expected an array with {' or '.join(str(d) for d in dims)} dimensions, got shape {array.shape}."
+        )
+    if array.size == 0:
+        raise SimroadError(f"{name}: expected a non-empty array, got shape {array.shape}.")
+    if array.dtype.kind == "f":
+        _check_finite(name, array)
+    return array
 
 
 def check_mask(name: str, mask: Any, shape: tuple[int, int] | None = None) -> np.ndarray:

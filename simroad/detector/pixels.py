@@ -34,7 +34,7 @@ def check_training_set(
             f"images: expected a sequence of (H, W, 3) images or an (N, H, W, 3) array, got "
             f"one array of shape {images.shape}. Wrap a single image in a list: [image]."
         )
-    images, masks = list(images), list(masks)
+    images, masks = _as_list("images", images), _as_list("masks", masks)
     if not images:
         raise SimroadError("images: expected at least one training image, got none.")
     if len(images) != len(masks):
@@ -45,6 +45,16 @@ def check_training_set(
         imgs.append(img)
         msks.append(check_mask(f"masks[{k}]", msk, shape=img.shape[:2]))
     return imgs, msks
+
+
+def _as_list(name: str, items: object) -> list:
+    if isinstance(items, np.ndarray):
+        return list(items)
+    if isinstance(items, (str, bytes)) or not isinstance(items, Sequence):
+        raise SimroadError(
+            f"{name}: expected a sequence (list or tuple) of arrays or one stacked array, got {type(items).__name__}."
+        )
+    return list(items)
 
 
 def sample_pixels(

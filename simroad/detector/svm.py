@@ -13,9 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.metrics.pairwise import rbf_kernel
 
+from simroad._validation import SimroadError, check_array, check_finite_number
+
 __all__ = ["KernelExpansion"]
 
 _CHUNK = 16384
+_FLOATS = ("float32", "float64")
 
 
 @dataclass(frozen=True)
@@ -38,6 +41,24 @@ class KernelExpansion:
     intercept: float
     gamma: float
 
+    def __post_init__(self) -> None:
+        # Checked here, so a damaged model or a hand-made expansion fails at once, naming
+        # the field, instead of later in predict() with a broadcast error.
+        sv = check_array("support_vectors", self.support_vectors, dtype=_FLOATS, ndim=2)
+        coef = check_array("dual_coef", self.dual_coef, dtype=_FLOATS, ndim=1)
+        if len(coef) != len(sv):
+            raise SimroadError(
+                f"dual_coef: expected one coefficient per support vector ({len(sv)}), got shape {coef.shape}."
+            )
+        intercept = check_finite_number("intercept", self.intercept)
+        gamma = check_finite_number("gamma", self.gamma)
+        if gamma <= 0.0:
+            raise SimroadError(f"gamma: expected an RBF kernel width > 0, got {gamma:g}.")
+        object.__setattr__(self, "support_vectors", np.asarray(sv, dtype=np.float64))
+        object.__setattr__(self, "dual_coef", np.asarray(coef, dtype=np.float64))
+        object.__setattr__(self, "intercept", intercept)
+        object.__setattr__(self, "gamma", gamma)
+
     @classmethod
     def from_svc(cls, svc) -> KernelExpansion:
         """Extract the expansion of a fitted binary ``SVC(kernel="rbf", gamma=<float>)``
@@ -52,6 +73,11 @@ class KernelExpansion:
     def decision_function(self, x: np.ndarray) -> np.ndarray:
         """``sum_i y_i lambda_i K(x, x_i) + b`` for rows of ``x`` (N, n_features); (N,) float64."""
         x = np.asarray(x, dtype=np.float64)
+        n_features = self.support_vectors.shape[1]
+        if x.ndim != 2 or x.shape[1] != n_features:
+            raise SimroadError(f"x: expected rows of {n_features} features, shape (N, {n_features}); got {x.shape}.")
+        if not np.isfinite(x).all():
+            raise SimroadError("x: expected finite feature values, got NaN or infinite ones.")
         out = np.empty(len(x))
         for s in range(0, len(x), _CHUNK):
             k = rbf_kernel(x[s : s + _CHUNK], self.support_vectors, gamma=self.gamma)

@@ -13,11 +13,13 @@ import functools
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_image, check_in_range, check_int_in_range
+from simroad._validation import SimroadError, check_array, check_image, check_in_range, check_int_in_range
 
 __all__ = ["box_mean", "guided_filter"]
 
 _MAX_RADIUS = 4096
+#: OpenCV's box filter handles at most this many channels.
+_MAX_CHANNELS = 128
 
 
 @functools.lru_cache(maxsize=16)
@@ -41,14 +43,21 @@ def box_mean(x: np.ndarray, radius: int) -> np.ndarray:
 
     Parameters
     ----------
-    x : ndarray, float32, (H, W) or (H, W, C)
+    x : ndarray, float32 or float64, (H, W) or (H, W, C)
+        Finite values, any range; at most 128 channels.
     radius : int
-        Window radius ``r`` in pixels.
+        Window radius ``r`` in pixels, in ``[0, 4096]`` (0 returns ``x``'s values).
 
     Returns
     -------
-    ndarray, float32, same shape as ``x``
+    ndarray, same shape as ``x``; float32 for a float32 ``x``, else float64
     """
+    x = check_array("x", x, dtype=("float32", "float64"), ndim=(2, 3))
+    if x.ndim == 3 and x.shape[2] > _MAX_CHANNELS:
+        raise SimroadError(
+            f"x: expected at most {_MAX_CHANNELS} channels, got shape {x.shape}. Filter the channels in groups."
+        )
+    radius = check_int_in_range("radius", radius, 0, _MAX_RADIUS)
     inv = _inv_window_counts(x.shape[0], x.shape[1], radius)
     return _box_sum(x, radius) * (inv[..., None] if x.ndim == 3 else inv)
 

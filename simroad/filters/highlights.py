@@ -37,7 +37,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range, check_int_in_range
+from simroad._validation import SimroadError, check_array, check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
@@ -130,14 +130,16 @@ def specular_to_diffuse(image: np.ndarray, lambda_max: np.ndarray, *, achromatic
     ndarray, same shape and dtype as ``image``
     """
     image = check_filter_image("image", image)
-    lam = np.asarray(lambda_max)
-    if lam.shape != image.shape[:2] or lam.dtype.kind != "f":
+    lam = check_array("lambda_max", lambda_max, dtype=("float32", "float64"), ndim=2)
+    if lam.shape != image.shape[:2]:
         raise SimroadError(
             f"lambda_max: expected a float array of shape {image.shape[:2]}, got "
             f"{lam.dtype} {lam.shape}. Pass one chromaticity per pixel."
         )
-    if not np.isfinite(lam).all() or lam.min() < 1.0 / 3.0 - 1e-6 or lam.max() > 1.0 + 1e-6:
-        raise SimroadError("lambda_max: expected finite values in [1/3, 1] (a chromaticity maximum).")
+    if lam.min() < 1.0 / 3.0 - 1e-6 or lam.max() > 1.0 + 1e-6:
+        raise SimroadError(
+            f"lambda_max: expected values in [1/3, 1] (a chromaticity maximum), got [{lam.min():g}, {lam.max():g}]."
+        )
     tol = check_in_range("achromatic_tol", achromatic_tol, 0.0, 1.0)
     out = _diffuse_planes(to_planes(image), lam.astype(np.float32), tol)
     return from_planes(out, image.dtype)

@@ -249,7 +249,7 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, varian
     """
     image = check_image("image", image, dtype=FILTER_DTYPES, channels=3)
     names = check_filters(filters)
-    variant = check_variant(variant)
+    variant = check_choice("variant", variant, FILTER_VARIANTS)
     if not names:
         return image.copy()
     return from_planes(filter_planes(to_planes(image), names, variant), image.dtype)
@@ -269,7 +269,7 @@ def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:
             return FILTER_NAMES
         names = [n.strip() for n in text.split("+")]
     else:
-        names = list(spec)
+        names = _name_list(spec)
     out = []
     for n in names:
         check_choice("filters", n, FILTER_NAMES + ("none", "all") if len(names) == 1 else FILTER_NAMES)
@@ -280,5 +280,18 @@ def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:
 
 
 def format_filters(filters: Sequence[str]) -> str:
-    """The canonical text of a filter set: ``none`` or names joined by ``+``."""
-    return "+".join(filters) if filters else "none"
+    """The canonical text of a filter set: ``none`` or names joined by ``+`` (in the order given)."""
+    names = _name_list(filters)
+    for name in names:
+        check_choice("filters", name, FILTER_NAMES)
+    return "+".join(names) if names else "none"
+
+
+def _name_list(filters: object) -> list[str]:
+    """A sequence of filter names as a list; anything else is refused naming ``filters``."""
+    if isinstance(filters, (str, bytes)) or not isinstance(filters, Sequence):
+        raise SimroadError(
+            f"filters: expected a sequence (list or tuple) of filter names from {FILTER_NAMES}, got "
+            f"{type(filters).__name__} {filters!r}."
+        )
+    return list(filters)

@@ -26,6 +26,7 @@ from simroad.filters import (
     remove_shadows,
 )
 from simroad.filters._common import to_planes
+from simroad.filters.pipeline import check_variant
 
 
 def _scene(shape=(48, 80)) -> np.ndarray:
@@ -114,8 +115,10 @@ def test_check_filters_and_variants():
     assert check_filters("light") == ("light",) and check_filters(None) == ()
     with pytest.raises(SimroadError, match="expected one of"):
         check_filters(["shadows"])
-    with pytest.raises(SimroadError, match="filter_variant"):
+    with pytest.raises(SimroadError, match=r"^variant: unknown value 'better'"):  # its own parameter's name (issue 13)
         apply_filters(_scene(), ("shadow",), variant="better")
+    with pytest.raises(SimroadError, match=r"^filter_variant"):
+        check_variant("better")
 
 
 def test_parse_and_format_filters():
