@@ -5,6 +5,7 @@ from __future__ import annotations
 from simroad.detector.detector import MIN_IMAGE_SIZE, RoadDetector, default_model_path
 from simroad.detector.features import hsi, pixel_features
 from simroad.detector.morphology import fill_holes, keep_ego_component, postprocess
+from simroad.detector.persistence import check_model_destination
 from simroad.detector.svm import KernelExpansion
 from simroad.detector.training import train_default
 from simroad.filters import FILTERS, apply_filters  # re-exported: filters are run by name from simroad.filters
@@ -15,6 +16,7 @@ __all__ = [
     "KernelExpansion",
     "RoadDetector",
     "apply_filters",
+    "check_model_destination",
     "default_model_path",
     "fill_holes",
     "hsi",

@@ -34,7 +34,7 @@ from simroad._validation import (
 from simroad.detector.features import N_FEATURES, _features_f
 from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
-from simroad.detector.persistence import parse_model, read_arrays, write_model
+from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
 from simroad.detector.pixels import (
     IMAGE_DTYPES,
     MIN_IMAGE_SIZE,
@@ -251,12 +251,15 @@ class RoadDetector(BaseEstimator):
 
     # -------------------------------------------------------------- persistence
     def save(self, path: str | os.PathLike) -> None:
-        """Write the fitted model to ``path`` as a compressed ``.npz`` (no pickle).
+        """Write the fitted model to ``path`` as a compressed ``.npz`` (no pickle) with a checksum.
 
-        See :func:`simroad.detector.persistence.write_model` for the arrays; the file
-        is written to a temporary name and renamed, so it is never partial.
+        The destination is checked first (:func:`~simroad.detector.check_model_destination`:
+        its folder must exist and be writable). See :mod:`simroad.detector.persistence`
+        for the format; the file is written to a temporary name and renamed, so it is
+        never partial.
         """
         check_is_fitted(self, "lut_", msg=_NOT_FITTED)
+        check_model_destination(path)
         params = self.get_params()
         params["filters"] = list(check_filters(params["filters"]))
         write_model(
@@ -266,18 +269,20 @@ class RoadDetector(BaseEstimator):
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> RoadDetector:
-        """Read a model written by :meth:`save` (arrays only; pickles are refused)."""
+        """Read a model written by :meth:`save`: arrays only (pickles are refused), every one checked.
+
+        Returns a detector that predicts exactly what the saved one did, or raises one
+        :class:`~simroad.SimroadError` naming the file and what is wrong (missing,
+        empty, truncated, damaged bytes -- caught by the zip CRC or the file's SHA-256
+        checksum --, wrong arrays, shapes, dtypes or values, a pickle). Files of
+        format version 1 (no checksum) are still read, with all other checks.
+        """
         return cls._from_arrays(read_arrays(path), str(path))
 
     @classmethod
     def _from_arrays(cls, arrays: dict[str, np.ndarray], where: str) -> RoadDetector:
         stored = parse_model(arrays, where)
-        try:
-            det = cls(**stored.params)
-        except TypeError as exc:
-            raise SimroadError(
-                f"path: {where!r} holds a damaged or incompatible road-detector model ({exc})."
-            ) from None
+        det = cls(**stored.params)  # parse_model checked the names and values
         det._set_model(stored.feature_mean, stored.feature_scale, stored.svm, stored.lut.bits, stored.lut)
         return det
 

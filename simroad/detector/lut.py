@@ -22,7 +22,7 @@ both).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +57,28 @@ def lut_index(planes: list[np.ndarray], bits: int) -> np.ndarray:
     idx |= g.astype(np.int32) << bits
     idx |= b
     return idx
+
+
+def _boundary_cells(coarse: np.ndarray, bits: int) -> np.ndarray:
+    """Coarse cells whose decision differs from one of their 26 neighbours', ascending, (n,) int32."""
+    grid = coarse.reshape((1 << bits,) * 3)
+    hi = ndimage.maximum_filter(grid, size=3, mode="nearest")
+    near = hi != ndimage.minimum_filter(grid, size=3, mode="nearest")
+    return np.flatnonzero(near).astype(np.int32)
+
+
+def _packed(arrays: Mapping[str, np.ndarray], name: str, n_bits: int) -> np.ndarray:
+    """Unpack the uint8 array ``name`` holding exactly ``n_bits`` bits (a multiple of 8); (n_bits,) bool."""
+    packed = _exact(arrays, name, np.uint8, (n_bits // 8,))
+    return np.unpackbits(packed, count=n_bits).astype(bool)
+
+
+def _exact(arrays: Mapping[str, np.ndarray], name: str, dtype: type, shape: tuple[int, ...]) -> np.ndarray:
+    a = arrays[name]
+    if not isinstance(a, np.ndarray) or a.dtype != np.dtype(dtype) or a.shape != shape:
+        got = f"{a.dtype} {a.shape}" if isinstance(a, np.ndarray) else type(a).__name__
+        raise ValueError(f"array {name!r} is {got}; the format needs {np.dtype(dtype)} {shape}")
+    return a
 
 
 def _decide_chunked(decide: Callable[[np.ndarray], np.ndarray], rgb: np.ndarray) -> np.ndarray:
@@ -115,10 +137,7 @@ class ColourTable:
     def build(cls, decide: Callable[[np.ndarray], np.ndarray], bits: int) -> ColourTable:
         """Tabulate ``decide`` (RGB rows (N, 3) in [0, 1] -> (N,) bool)."""
         coarse = _decide_chunked(decide, cell_centres(bits))
-        grid = coarse.reshape((1 << bits,) * 3)
-        hi = ndimage.maximum_filter(grid, size=3, mode="nearest")
-        near = hi != ndimage.minimum_filter(grid, size=3, mode="nearest")
-        cells = np.flatnonzero(near).astype(np.int32)
+        cells = _boundary_cells(coarse, bits)
         fine = _decide_chunked(decide, _fine_colours(cells, bits)).reshape(len(cells), -1)
         return cls(bits, coarse, cells, fine)
 
@@ -150,16 +169,24 @@ class ColourTable:
         }
 
     @classmethod
-    def from_arrays(cls, arrays: dict) -> ColourTable:
-        """Inverse of :meth:`to_arrays`; raises ValueError on inconsistent arrays."""
-        bits = int(arrays["lut_bits"])
+    def from_arrays(cls, arrays: Mapping[str, np.ndarray]) -> ColourTable:
+        """Inverse of :meth:`to_arrays`, checked exactly; raises ValueError naming the first bad array.
+
+        Every array must have the dtype and shape :meth:`to_arrays` writes, and the
+        refined cells must be exactly the coarse table's boundary cells (as
+        :meth:`build` chooses them), so a damaged coarse table cannot pass.
+        """
+        bits_arr = _exact(arrays, "lut_bits", np.int64, ())
+        bits = int(bits_arr)
         if not 5 <= bits <= 7:
-            raise ValueError(f"lut_bits {bits} outside 5-7")
-        n_coarse = 1 << (3 * bits)
-        coarse = np.unpackbits(np.asarray(arrays["lut"], np.uint8), count=n_coarse).astype(bool)
-        cells = np.asarray(arrays["lut_refined_cells"], dtype=np.int32).ravel()
-        if cells.size and (cells.min() < 0 or cells.max() >= n_coarse):
-            raise ValueError("refined cell index out of range")
+            raise ValueError(f"array 'lut_bits' is {bits}; the format needs 5, 6 or 7")
+        coarse = _packed(arrays, "lut", 1 << (3 * bits))
+        cells = arrays["lut_refined_cells"]
+        if not isinstance(cells, np.ndarray) or cells.dtype != np.int32 or cells.ndim != 1:
+            got = f"{cells.dtype} {cells.shape}" if isinstance(cells, np.ndarray) else type(cells).__name__
+            raise ValueError(f"array 'lut_refined_cells' is {got}; the format needs int32 (n,)")
+        if not np.array_equal(cells, _boundary_cells(coarse, bits)):
+            raise ValueError("array 'lut_refined_cells' does not list the boundary cells of array 'lut'")
         fine_size = 1 << (3 * (8 - bits))
-        fine = np.unpackbits(np.asarray(arrays["lut_fine"], np.uint8), count=len(cells) * fine_size)
-        return cls(bits, coarse, cells, fine.astype(bool).reshape(len(cells), fine_size))
+        fine = _packed(arrays, "lut_fine", len(cells) * fine_size)
+        return cls(bits, coarse, cells, fine.reshape(len(cells), fine_size))

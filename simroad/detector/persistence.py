@@ -1,31 +1,82 @@
-"""Road-detector model files: arrays in a compressed ``.npz`` plus a JSON header, never pickled.
+"""Road-detector model files: checked arrays in a compressed ``.npz`` with a JSON header and a checksum, never pickled.
 
-A shared model file therefore cannot run code. :meth:`RoadDetector.save
-<simroad.detector.RoadDetector.save>` and :meth:`~simroad.detector.RoadDetector.load`
-use these functions.
+A shared model file therefore cannot run code, and a damaged one cannot load:
+:func:`read_model` either returns exactly the arrays and parameters that were saved or
+raises one :class:`~simroad.SimroadError` naming the file and what is wrong.
+:meth:`RoadDetector.save <simroad.detector.RoadDetector.save>` and
+:meth:`~simroad.detector.RoadDetector.load` use these functions.
+
+Format (``meta["format"] == "simroad.RoadDetector"``)
+-----------------------------------------------------
+Version 2 (written since simroad 0.13): the arrays below, a JSON ``meta`` string and
+``checksum``, ``"sha256:<hex>"`` of every other array -- name, dtype, shape and bytes,
+in name order (:func:`array_checksum`) -- so a changed byte anywhere, even one the
+zip's CRC-32 or zlib would let through, is found. Version 1 (simroad 0.12 and
+earlier) has no checksum and is still read, with every check below but that one.
+
+==================  ========  ===========================  =============================
+array               dtype     shape                        values
+==================  ========  ===========================  =============================
+support_vectors     float64   (n_sv, 3), n_sv >= 1         finite
+dual_coef           float64   (n_sv,)                      finite
+intercept           float64   ()                           finite
+gamma               float64   ()                           finite, > 0
+feature_mean        float64   (3,)                         finite
+feature_scale       float64   (3,)                         finite, > 0
+lut_bits            int64     ()                           5, 6 or 7 (= params lut_bits)
+lut                 uint8     (2**(3 bits) / 8,)           bit-packed coarse table
+lut_refined_cells   int32     (n,)                         the coarse table's boundary cells
+lut_fine            uint8     (n * 2**(3 (8 - bits)) / 8,) bit-packed fine table
+meta                str       ()                           JSON: format, version, params
+checksum            str       ()                           version 2 only
+==================  ========  ===========================  =============================
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError
+from simroad._validation import SimroadError, check_bool, check_choice, check_in_range, check_int_in_range
+from simroad.detector._strict_npz import model_error, read_npz
 from simroad.detector.features import N_FEATURES
 from simroad.detector.lut import ColourTable
 from simroad.detector.svm import KernelExpansion
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "StoredModel", "parse_model", "read_arrays", "write_model"]
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "PARAM_NAMES",
+    "READABLE_VERSIONS",
+    "StoredModel",
+    "array_checksum",
+    "check_model_destination",
+    "check_params",
+    "parse_model",
+    "read_arrays",
+    "read_model",
+    "write_model",
+]
 
 FORMAT = "simroad.RoadDetector"
-FORMAT_VERSION = 1
-_NEEDED = frozenset({"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "meta",
-                     "lut", "lut_bits", "lut_refined_cells", "lut_fine"})  # fmt: skip
+#: Version written by :func:`write_model`.
+FORMAT_VERSION = 2
+#: Versions :func:`parse_model` reads (1: no checksum).
+READABLE_VERSIONS = (1, 2)
+_CHECKSUM = "checksum"
+_ARRAYS_V1 = frozenset({"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "meta",
+                        "lut", "lut_bits", "lut_refined_cells", "lut_fine"})  # fmt: skip
+_ARRAYS = {1: _ARRAYS_V1, 2: _ARRAYS_V1 | {_CHECKSUM}}
+#: The constructor parameters of :class:`~simroad.detector.RoadDetector`, all stored in a model file.
+PARAM_NAMES = frozenset({"filters", "filter_variant", "morphology", "C", "gamma", "max_samples", "nonroad_weight",
+                         "lut_bits", "random_state"})  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -39,6 +90,96 @@ class StoredModel:
     lut: ColourTable
 
 
+def check_model_destination(path: object, *, name: str = "path", make_parents: bool = False) -> Path:
+    """Check, before any work, that a model file can be written at ``path``; return it as a Path.
+
+    Refused, with a :class:`~simroad.SimroadError` naming ``name``: a value that is not a
+    path, an existing directory, a path below a regular file, a missing folder (unless
+    ``make_parents``, which creates it), a folder that is not writable, an existing
+    file that is not writable.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The ``.npz`` file to write.
+    name : str, optional
+        The parameter or flag named in errors (e.g. ``"out"`` for ``--out``).
+    make_parents : bool, optional
+        Create missing folders (as ``mkdir -p``) instead of refusing them.
+    """
+    if not isinstance(path, (str, os.PathLike)) or not str(path):
+        raise SimroadError(f"{name}: expected a file path (str or os.PathLike), got {type(path).__name__} {path!r}.")
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise SimroadError(
+                f"{name}: {str(p)!r} is a directory; give a file path such as {str(p / 'road_detector.npz')!r}."
+            )
+        parent = p.parent
+        existing = parent
+        while not existing.exists() and existing != existing.parent:
+            existing = existing.parent
+        if not existing.is_dir():
+            raise SimroadError(
+                f"{name}: cannot write {str(p)!r}: {str(existing)!r} is a file, not a folder. Choose another path."
+            )
+        if existing != parent:
+            if not make_parents:
+                raise SimroadError(
+                    f"{name}: the folder {str(parent)!r} does not exist. Create it first (mkdir -p {parent}) "
+                    "or choose an existing folder."
+                )
+            parent.mkdir(parents=True, exist_ok=True)
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise SimroadError(f"{name}: the folder {str(parent)!r} is not writable. Choose another path.")
+        if p.exists() and (not p.is_file() or not os.access(p, os.W_OK)):
+            raise SimroadError(f"{name}: {str(p)!r} exists and is not a writable file. Choose another path.")
+    except OSError as exc:
+        raise SimroadError(f"{name}: cannot write {str(p)!r} ({exc.strerror or exc}). Choose another path.") from None
+    return p
+
+
+def check_params(params: object) -> None:
+    """Check stored detector parameters: exactly :data:`PARAM_NAMES`, each valid as ``RoadDetector.fit`` wants it.
+
+    Raises :class:`~simroad.SimroadError` naming the parameter; values are not changed.
+    """
+    from simroad.filters.pipeline import FILTER_VARIANTS, FILTERS
+
+    if not isinstance(params, dict):
+        raise SimroadError(f"params: expected a mapping of parameter names to values, got {type(params).__name__}.")
+    missing, unknown = sorted(PARAM_NAMES - set(params)), sorted(set(params) - PARAM_NAMES)
+    if missing or unknown:
+        raise SimroadError(f"params: expected exactly {sorted(PARAM_NAMES)}; missing {missing}, unknown {unknown}.")
+    filters = params["filters"]
+    if isinstance(filters, str) or not isinstance(filters, (list, tuple)):
+        raise SimroadError(f"filters: expected a list of filter names, got {filters!r}.")
+    for f in filters:
+        check_choice("filters", f, FILTERS)
+    check_choice("filter_variant", params["filter_variant"], FILTER_VARIANTS)
+    check_bool("morphology", params["morphology"])
+    check_in_range("C", params["C"], 0.0, 1e6, low_inclusive=False)
+    if params["gamma"] != "scale":
+        check_in_range("gamma", params["gamma"], 0.0, 1e6, low_inclusive=False)
+    check_int_in_range("max_samples", params["max_samples"], 2, 1_000_000)
+    check_in_range("nonroad_weight", params["nonroad_weight"], 0.0, 1e3, low_inclusive=False)
+    check_int_in_range("lut_bits", params["lut_bits"], 5, 7)
+    check_int_in_range("random_state", params["random_state"], 0, 2**63 - 1)
+
+
+def array_checksum(arrays: Mapping[str, Any]) -> str:
+    """``"sha256:<hex>"`` over every array but ``checksum``, in name order: name, dtype, shape and bytes."""
+    digest = hashlib.sha256()
+    for key in sorted(arrays):
+        if key == _CHECKSUM:
+            continue
+        a = np.asarray(arrays[key])
+        for part in (json.dumps([key, a.dtype.str, list(a.shape)]).encode(), a.tobytes()):
+            digest.update(len(part).to_bytes(8, "little"))
+            digest.update(part)
+    return "sha256:" + digest.hexdigest()
+
+
 def write_model(
     path: str | os.PathLike,
     *,
@@ -48,22 +189,22 @@ def write_model(
     svm: KernelExpansion,
     lut: ColourTable,
 ) -> None:
-    """Write a model to ``path`` (compressed ``.npz``), atomically: a temporary name, then a rename.
+    """Write a model to ``path`` (compressed ``.npz``, format :data:`FORMAT_VERSION`), atomically.
 
-    Arrays: ``support_vectors``, ``dual_coef``, ``intercept``, ``gamma``,
-    ``feature_mean``, ``feature_scale``, and the lookup table (bit-packed ``lut``,
-    ``lut_bits``, ``lut_refined_cells``, bit-packed ``lut_fine``); ``meta`` is a JSON
-    string with the format name/version and the parameters.
+    The destination (:func:`check_model_destination`) and the parameters are checked
+    first; the file is written under a temporary name in the same folder and renamed,
+    so it is never partial. See the module docstring for the arrays.
     """
+    dest = check_model_destination(path)
+    check_params(params)
     meta = {
         "format": FORMAT,
         "version": FORMAT_VERSION,
         "params": params,
         "features": "I, S cos H, S sin H (paper eqs. 10-12), unsmoothed",
         "n_support": len(svm.dual_coef),
+        "checksum": "sha256 of every other array: name, dtype, shape, bytes; in name order",
     }
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
     arrays: dict[str, Any] = {
         "support_vectors": svm.support_vectors,
         "dual_coef": svm.dual_coef,
@@ -74,47 +215,103 @@ def write_model(
         "meta": np.array(json.dumps(meta)),
         **lut.to_arrays(),
     }
-    with open(tmp, "wb") as fh:
-        np.savez_compressed(fh, **arrays)
-    os.replace(tmp, path)
-
-
-def read_arrays(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Every array of the ``.npz`` at ``path`` (pickles are refused)."""
+    arrays[_CHECKSUM] = np.array(array_checksum(arrays))
+    tmp = dest.with_name(f".{dest.name}.{os.getpid()}.tmp")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except FileNotFoundError:
-        raise SimroadError(
-            f"path: no model file at {str(path)!r}. Train one with RoadDetector().fit(...).save(path) "
-            "or `simroad train-detector`."
-        ) from None
-    except (OSError, ValueError) as exc:
-        raise SimroadError(f"path: {str(path)!r} is not a simroad road-detector .npz file ({exc}).") from None
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        os.replace(tmp, dest)
+    except OSError as exc:
+        raise SimroadError(f"path: could not write {str(dest)!r} ({exc.strerror or exc}).") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def read_arrays(path: object) -> dict[str, np.ndarray]:
+    """Every array of the model ``.npz`` at ``path``, read strictly (see :func:`simroad.detector._strict_npz.read_npz`)."""
+    return read_npz(path)
+
+
+def read_model(path: object) -> StoredModel:
+    """Read and check the model file at ``path``; one :class:`~simroad.SimroadError` if it is not whole."""
+    return parse_model(read_npz(path), str(path))
+
+
+def _array(arrays: Mapping[str, np.ndarray], key: str, shape: tuple[int | None, ...], *, positive: bool = False):
+    """The float64 array ``key`` of the given shape (None: any length), finite (and > 0)."""
+    a = arrays[key]
+    ok = a.dtype == np.float64 and a.ndim == len(shape) and all(n is None or n == m for n, m in zip(shape, a.shape))
+    if not ok:
+        want = "(" + ", ".join("n" if n is None else str(n) for n in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise ValueError(f"array {key!r} is {a.dtype} {a.shape}; the format needs float64 {want}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"array {key!r} holds NaN or infinite values")
+    if positive and not (a > 0).all():
+        raise ValueError(f"array {key!r} must be > 0, got {a.tolist()}")
+    return a
+
+
+def _meta(arrays: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    raw = arrays["meta"]
+    if raw.dtype.kind != "U" or raw.shape != ():
+        raise ValueError(f"array 'meta' is {raw.dtype} {raw.shape}; the format needs one JSON string")
+    meta = json.loads(str(raw))
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ValueError(f"array 'meta' does not describe a {FORMAT} (format {meta.get('format')!r})"
+                         if isinstance(meta, dict) else "array 'meta' is not a JSON object")  # fmt: skip
+    version = meta.get("version")
+    if isinstance(version, bool) or version not in READABLE_VERSIONS:
+        raise ValueError(f"format version {version!r}; this simroad reads versions {READABLE_VERSIONS}")
+    if not isinstance(meta.get("params"), dict):
+        raise ValueError("array 'meta' has no 'params' object")
+    return meta
+
+
+def _check_names(arrays: Mapping[str, np.ndarray], version: int) -> None:
+    missing = sorted(_ARRAYS[version] - set(arrays))
+    unexpected = sorted(set(arrays) - _ARRAYS[version])
+    if missing or unexpected:
+        raise ValueError(f"format version {version} needs arrays {sorted(_ARRAYS[version])}; "
+                         f"missing {missing}, unexpected {unexpected}")  # fmt: skip
 
 
 def parse_model(arrays: dict[str, np.ndarray], where: str) -> StoredModel:
     """Check and decode the arrays of a model file; ``where`` names it in errors.
 
-    The stored ``filters`` parameter (a JSON list) comes back as a tuple, as the
-    estimator holds it.
+    Checks, in order: the array names, ``meta`` (format, version), the checksum
+    (version 2), the parameters, and every array's dtype, shape and values against
+    the format (module docstring). The stored ``filters`` parameter (a JSON list)
+    comes back as a tuple, as the estimator holds it.
     """
-    missing = sorted(_NEEDED - set(arrays))
-    if missing:
-        raise SimroadError(f"path: {where!r} is not a simroad road-detector file; missing {missing}.")
     try:
-        meta = json.loads(str(arrays["meta"]))
-        if meta.get("format") != FORMAT or meta.get("version") != FORMAT_VERSION:
-            raise ValueError(f"format {meta.get('format')!r} version {meta.get('version')!r}")
+        if "meta" not in arrays:
+            raise ValueError(f"missing array 'meta'; arrays present: {sorted(arrays)}")
+        meta = _meta(arrays)
+        _check_names(arrays, meta["version"])
+        if meta["version"] >= 2:
+            stored = arrays[_CHECKSUM]
+            if stored.dtype.kind != "U" or stored.shape != () or str(stored) != array_checksum(arrays):
+                raise ValueError(
+                    "checksum mismatch: the arrays are not the ones that were saved (file modified or damaged)"
+                )
         params = dict(meta["params"])
-        if isinstance(params.get("filters"), list):
-            params["filters"] = tuple(params["filters"])
-        sv = np.asarray(arrays["support_vectors"], dtype=np.float64)
-        coef = np.asarray(arrays["dual_coef"], dtype=np.float64).ravel()
-        if sv.ndim != 2 or sv.shape[1] != N_FEATURES or len(coef) != len(sv):
-            raise ValueError("inconsistent array shapes")
+        try:
+            check_params(params)
+        except SimroadError as exc:
+            raise ValueError(f"parameter {exc}") from None
+        params["filters"] = tuple(params["filters"])
+        sv = _array(arrays, "support_vectors", (None, N_FEATURES))
+        if len(sv) < 1 or meta.get("n_support", len(sv)) != len(sv):
+            raise ValueError(f"array 'support_vectors' has {len(sv)} rows; meta says {meta.get('n_support')}")
+        svm = KernelExpansion(
+            sv, _array(arrays, "dual_coef", (len(sv),)), float(_array(arrays, "intercept", ())),
+            float(_array(arrays, "gamma", (), positive=True)),
+        )  # fmt: skip
+        mean = _array(arrays, "feature_mean", (N_FEATURES,))
+        scale = _array(arrays, "feature_scale", (N_FEATURES,), positive=True)
         lut = ColourTable.from_arrays(arrays)
-        svm = KernelExpansion(sv, coef, float(arrays["intercept"]), float(arrays["gamma"]))
-    except (ValueError, TypeError, KeyError) as exc:
-        raise SimroadError(f"path: {where!r} holds a damaged or incompatible road-detector model ({exc}).") from None
-    return StoredModel(params, arrays["feature_mean"], arrays["feature_scale"], svm, lut)
+        if lut.bits != params["lut_bits"]:
+            raise ValueError(f"array 'lut_bits' is {lut.bits} but parameter lut_bits is {params['lut_bits']}")
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:  # SimroadError is a ValueError
+        raise model_error(where, str(exc)) from None
+    return StoredModel(params, mean, scale, svm, lut)
