@@ -33,7 +33,7 @@ _ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplemented
 def model_error(where: str, what: str) -> SimroadError:
     """The one error for a model file that is not whole: names the file, what is wrong and the fix."""
     return SimroadError(
-        f"path: {where!r} is not a simroad road-detector model, or a damaged one: {what}. Copy the file again, or train a "
+        f"path: {where!r} is not a simroad road-detector model, or a damaged one: {what.rstrip('.')}. Copy the file again, or train a "
         "new one with `simroad train-detector` (or RoadDetector(...).fit(images, masks).save(path))."
     )
 

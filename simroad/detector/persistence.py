@@ -298,7 +298,7 @@ def parse_model(arrays: dict[str, np.ndarray], where: str) -> StoredModel:
         try:
             check_params(params)
         except SimroadError as exc:
-            raise ValueError(f"parameter {exc}") from None
+            raise ValueError(f"stored {exc}") from None
         params["filters"] = tuple(params["filters"])
         sv = _array(arrays, "support_vectors", (None, N_FEATURES))
         if len(sv) < 1 or meta.get("n_support", len(sv)) != len(sv):
