@@ -8,28 +8,28 @@ raises one :class:`~simroad.SimroadError` naming the file and what is wrong.
 
 Format (``meta["format"] == "simroad.RoadDetector"``)
 -----------------------------------------------------
-Version 2 (written since simroad 0.13): the arrays below, a JSON ``meta`` string and
-``checksum``, ``"sha256:<hex>"`` of every other array -- name, dtype, shape and bytes,
-in name order (:func:`array_checksum`) -- so a changed byte anywhere, even one the
-zip's CRC-32 or zlib would let through, is found. Version 1 (simroad 0.12 and
-earlier) has no checksum and is still read, with every check below but that one.
+Version 2 (the current format): the arrays below, a JSON ``meta`` string
+and ``checksum``, ``"sha256:<hex>"`` of every other array -- name, dtype, shape and
+bytes, in name order (:func:`array_checksum`) -- so a changed byte anywhere, even one
+the zip's CRC-32 or zlib would let through, is found. Version 1 (simroad 0.1.0) has
+no checksum and is still read, with every check below but that one.
 
-==================  ========  ===========================  =============================
-array               dtype     shape                        values
-==================  ========  ===========================  =============================
-support_vectors     float64   (n_sv, 3), n_sv >= 1         finite
-dual_coef           float64   (n_sv,)                      finite
-intercept           float64   ()                           finite
-gamma               float64   ()                           finite, > 0
-feature_mean        float64   (3,)                         finite
-feature_scale       float64   (3,)                         finite, > 0
-lut_bits            int64     ()                           5, 6 or 7 (= params lut_bits)
-lut                 uint8     (2**(3 bits) / 8,)           bit-packed coarse table
-lut_refined_cells   int32     (n,)                         the coarse table's boundary cells
-lut_fine            uint8     (n * 2**(3 (8 - bits)) / 8,) bit-packed fine table
-meta                str       ()                           JSON: format, version, params
-checksum            str       ()                           version 2 only
-==================  ========  ===========================  =============================
+==================  ========  ==============================  =================================
+array               dtype     shape                           values
+==================  ========  ==============================  =================================
+support_vectors     float64   (n_sv, 3), n_sv >= 1            finite
+dual_coef           float64   (n_sv,)                         finite
+intercept           float64   ()                              finite
+gamma               float64   ()                              finite, > 0
+feature_mean        float64   (3,)                            finite
+feature_scale       float64   (3,)                            finite, > 0
+lut_bits            int64     ()                              5, 6 or 7 (= params lut_bits)
+lut                 uint8     (2**(3 bits) / 8,)              bit-packed coarse table
+lut_refined_cells   int32     (n,)                            the coarse table's boundary cells
+lut_fine            uint8     (n * 2**(3 (8 - bits)) / 8,)    bit-packed fine table
+meta                str       ()                              JSON: format, version, params
+checksum            str       ()                              version 2 only
+==================  ========  ==============================  =================================
 """
 
 from __future__ import annotations
