@@ -20,6 +20,18 @@ from simroad.noise import NoiseContext, Weather, make_weather
 __all__ = ["RoadCamEnv"]
 
 
+def _action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+    """The action as a flat float64 array, refusing what is not numbers (strings, dicts, None)."""
+    hint = f"expected {shape[0]} number(s) in [-1, 1] (an array of shape {shape})"
+    if isinstance(action, (str, bytes)) or action is None:
+        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.")
+    try:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.") from None
+    return a
+
+
 class RoadCamEnv(gym.Env):
     """A dashboard camera on a highway-env car, in clear or bad weather.
 
@@ -146,7 +158,7 @@ class RoadCamEnv(gym.Env):
         return self._observe(crashed=False)
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        a = _action_array(action, self.action_space.shape)
         if a.shape != self.action_space.shape:
             raise SimroadError(f"action: expected shape {self.action_space.shape}, got {np.shape(action)}.")
         if not np.all(np.isfinite(a)):

@@ -32,15 +32,15 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range, check_int_in_range
+from simroad._validation import SimroadError, check_bool, check_choice, check_in_range, check_int_in_range
 from simroad.control.drivers import DRIVER_NAMES, make_driver
-from simroad.envs import RoadCamEnv, get_scenario
+from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
 from simroad.experiments.video import EpisodeVideo
 from simroad.filters import FILTER_NAMES, format_filters, parse_filters  # re-exported here for old imports
@@ -85,7 +85,31 @@ class EpisodeSpec:
             check_choice("driver", self.driver, DRIVER_NAMES)
         if self.route_m is not None:
             check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
+        self._check_env()
 
+    def _check_env(self) -> None:
+        """Validate the environment's options now, not when the episode starts."""
+        check_bool("traffic", self.traffic)
+        if not isinstance(self.env_options, Mapping):
+            raise SimroadError(
+                f"env_options: expected a dict of RoadCam options such as {{'width': 640}}, "
+                f"got {type(self.env_options).__name__}."
+            )
+        clash = sorted(set(self.env_options) & set(_SPEC_ENV_KEYS))
+        if clash:
+            raise SimroadError(
+                f"env_options: {', '.join(map(repr, clash))} set by the spec itself; pass "
+                f"{', '.join(f'{k}=...' for k in clash if k in _SPEC_FIELDS) or 'nothing'} to EpisodeSpec "
+                "instead (longitudinal and duration_s follow from the driver and steps)."
+            )
+        RoadCamConfig.from_kwargs(
+            scenario=self.scenario, noise=self.noise, severity=self.severity, traffic=self.traffic, **self.env_options
+        )
+
+
+#: RoadCam options the spec sets itself (so not allowed in ``env_options``).
+_SPEC_ENV_KEYS = ("scenario", "noise", "severity", "traffic", "longitudinal", "duration_s")
+_SPEC_FIELDS = ("scenario", "noise", "severity", "traffic")
 
 #: Longest episode time limit in simulated s (``EpisodeSpec.steps`` beyond it are cut).
 _MAX_DURATION_S = 1e3

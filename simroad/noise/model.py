@@ -14,7 +14,7 @@ the spoiled frame (same shape and dtype as the input) and a dict noise name -> b
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar
 
@@ -22,6 +22,7 @@ import numpy as np
 
 from simroad._validation import (
     SimroadError,
+    check_bool,
     check_image,
     check_in_range,
     check_int_in_range,
@@ -72,6 +73,11 @@ class Limit:
             return None
         if self.length is None:
             return self._check_one(name, value)
+        if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+            raise SimroadError(
+                f"{name}: expected {self.length} values (a tuple such as {(1.0,) * self.length}), "
+                f"got {type(value).__name__} {value!r}."
+            )
         values = tuple(value)
         if len(values) != self.length:
             raise SimroadError(f"{name}: expected {self.length} values, got {len(values)}.")
@@ -102,7 +108,8 @@ class Params:
     Subclasses declare the valid range of every numeric field once, in the class
     table ``LIMITS`` (field name -> :class:`Limit`): construction validates against it
     and the Notes section of the class docstring is generated from it.
-    ``bool`` fields are converted with ``bool()``.
+    ``bool`` fields take True/False (numpy bools and the integers 0 and 1 too);
+    anything else, such as the string ``"no"``, is refused.
     """
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {}
@@ -125,7 +132,7 @@ class Params:
             object.__setattr__(self, name, limit.check(name, getattr(self, name)))
         for f in fields(self):
             if f.type in ("bool", bool):
-                object.__setattr__(self, f.name, bool(getattr(self, f.name)))
+                object.__setattr__(self, f.name, _check_flag(f.name, getattr(self, f.name)))
 
     @classmethod
     def from_severity(cls, severity: float) -> Params:  # pragma: no cover - abstract
@@ -135,6 +142,13 @@ class Params:
     def is_identity(self) -> bool:
         """True when these parameters leave every frame unchanged."""
         raise NotImplementedError  # pragma: no cover - abstract
+
+
+def _check_flag(name: str, value: Any) -> bool:
+    """A bool field: True/False, numpy bools, or the integers 0 and 1."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value in (0, 1):
+        return bool(value)
+    return check_bool(name, value)
 
 
 class NoiseModel:
