@@ -20,9 +20,10 @@ from simroad.noise import NoiseContext, Weather, make_weather
 __all__ = ["RoadCamEnv"]
 
 
-def _action_array(action: Any, shape: tuple[int, ...]) -> np.ndarray:
+def _action_array(action: Any, shape: tuple[int, ...] | None) -> np.ndarray:
     """The action as a flat float64 array, refusing what is not numbers (strings, dicts, None)."""
-    hint = f"expected {shape[0]} number(s) in [-1, 1] (an array of shape {shape})"
+    n = shape[0] if shape else 1
+    hint = f"expected {n} number(s) in [-1, 1] (an array of shape {shape})"
     if isinstance(action, (str, bytes)) or action is None:
         raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.")
     try:
