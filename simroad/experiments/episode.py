@@ -138,6 +138,8 @@ def run_episode(
     video : path, optional
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
     """
+    if not isinstance(spec, EpisodeSpec):
+        raise SimroadError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
     t_start = time.perf_counter()
     period = get_scenario(spec.scenario).policy_period_s
     duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)

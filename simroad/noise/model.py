@@ -23,6 +23,7 @@ import numpy as np
 from simroad._validation import (
     SimroadError,
     check_bool,
+    check_finite_number,
     check_image,
     check_in_range,
     check_int_in_range,
@@ -66,6 +67,14 @@ class Limit:
     integer: bool = False
     optional: bool = False
     length: int | None = None
+
+    def __post_init__(self) -> None:
+        low = check_finite_number("low", self.low)
+        high = check_finite_number("high", self.high)
+        if low > high:
+            raise SimroadError(f"low: expected at most high={high:g}, got {low:g}.")
+        if self.length is not None:
+            check_int_in_range("length", self.length, 1, 1000)
 
     def check(self, name: str, value: Any) -> Any:
         """Return ``value`` validated (as float, int or tuple of float), else raise naming ``name``."""
