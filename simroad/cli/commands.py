@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import SimroadError, check_output_dir
+from simroad._validation import SimroadError, check_choice, check_output_dir
 from simroad.cli.types import MAX_SEED, given
-from simroad.experiments.ablate import run_ablation
+from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
 from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
@@ -123,6 +123,8 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         return 2
     out = run.pop("out")
     check_output_dir("out", out)
+    if "backend" in run:
+        check_choice("backend", run["backend"], BACKENDS)
     if "ray_address" in run and run.get("backend", "local") != "ray":
         raise SimroadError(
             "--ray-address (ray_address): does not apply with the local backend; add --backend ray (backend = "

@@ -64,8 +64,10 @@ def _filter_list(value: str) -> str:
     return value
 
 
-_NOISE = T.checked(_noise, "noise")
-_FILTERS = T.checked(_filters, "filters")
+_NOISE = T.checked(_noise, "noise", bad=[("unknown name", "rian"), ("repeated", "rain+rain"), ("empty", "")])
+_FILTERS = T.checked(_filters, "filters", bad=[("unknown name", "bogus"), ("wrong type", "5")])
+_NOISES = T.checked(_noise_list, "list", bad=[("unknown name", "clear,rian"), ("empty", ",")])
+_FILTER_SETS = T.checked(_filter_list, "list", bad=[("unknown name", "none,bogus"), ("empty", ",")])
 _UNIT = T.float_in(0.0, 1.0)
 _INT = T.int_in(1, 100_000)  # image sizes: the camera checks its own range
 _STEPS = T.int_in(1, 1_000_000)
@@ -219,7 +221,7 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument(
         "--noises",
-        type=T.checked(_noise_list, "list"),
+        type=_NOISES,
         help=f"comma-separated: {_names(NOISE_NAMES)} or compositions like rain+glare (default: {d['noises']})",
     )
     p.add_argument(
@@ -229,7 +231,7 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument(
         "--filters",
-        type=T.checked(_filter_list, "list"),
+        type=_FILTER_SETS,
         help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTER_NAMES)}) (default: {d['filters']})",
     )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
@@ -304,7 +306,7 @@ def _add_detector(sub: Any) -> None:
     )
     p.add_argument(
         "--filters",
-        type=T.checked(_filter_list, "list"),
+        type=_FILTER_SETS,
         default=_shown(d["settings"]),
         help=f"comma-separated filter settings (default: {_shown(d['settings'])})",
     )

@@ -45,8 +45,13 @@ MAX_SEED = 2**31 - 1
 _NAME_PREFIX = re.compile(r"^[A-Za-z_][A-Za-z0-9_\[\]' ]*: ")
 
 
-def _typed(fn: Callable[[str], Any], name: str) -> Callable[[str], Any]:
+def _typed(fn: Callable[[str], Any], name: str, bad: Sequence[tuple[str, str]] = ()) -> Callable[[str], Any]:
+    """Name ``fn`` for argparse's messages and attach ``bad_inputs``: (why, text) pairs of
+    values it refuses (``{file}``, ``{dir}``, ``{missing}`` stand for a regular file,
+    a directory and a path that does not exist), which the test suite feeds to every
+    flag of this type."""
     fn.__name__ = name  # argparse names the type in some messages
+    fn.bad_inputs = tuple(bad)  # type: ignore[attr-defined]
     return fn
 
 
@@ -55,8 +60,11 @@ def _strip_name(message: str) -> str:
     return _NAME_PREFIX.sub("", message, count=1)
 
 
-def checked(check: Callable[[str], Any], name: str = "value") -> Callable[[str], Any]:
-    """Wrap a library check ``text -> value`` raising :class:`SimroadError`."""
+def checked(
+    check: Callable[[str], Any], name: str = "value", *, bad: Sequence[tuple[str, str]] = ()
+) -> Callable[[str], Any]:
+    """Wrap a library check ``text -> value`` raising :class:`SimroadError`; ``bad``
+    lists values it refuses (see :func:`_typed`)."""
 
     def convert(value: str) -> Any:
         try:
@@ -64,7 +72,7 @@ def checked(check: Callable[[str], Any], name: str = "value") -> Callable[[str],
         except SimroadError as exc:
             raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
 
-    return _typed(convert, name)
+    return _typed(convert, name, bad)
 
 
 def int_in(low: int, high: int) -> Callable[[str], int]:
@@ -79,7 +87,8 @@ def int_in(low: int, high: int) -> Callable[[str], int]:
             raise argparse.ArgumentTypeError(f"expected an integer in [{low}, {high}], got {number}.")
         return number
 
-    return _typed(convert, "integer")
+    bad = [("wrong type", "abc"), ("not an integer", "1.5"), ("below the range", str(low - 1))]
+    return _typed(convert, "integer", [*bad, ("above the range", str(high + 1))])
 
 
 def seed() -> Callable[[str], int]:
@@ -99,7 +108,8 @@ def _float(value: str, what: str) -> float:
 
 def finite_float() -> Callable[[str], float]:
     """Any finite number."""
-    return _typed(lambda value: _float(value, "a finite number"), "number")
+    bad = [("wrong type", "abc"), ("not finite", "inf"), ("not a number", "nan")]
+    return _typed(lambda value: _float(value, "a finite number"), "number", bad)
 
 
 def float_in(low: float, high: float, *, unit: str = "") -> Callable[[str], float]:
@@ -112,7 +122,8 @@ def float_in(low: float, high: float, *, unit: str = "") -> Callable[[str], floa
             raise argparse.ArgumentTypeError(f"expected {what}, got {number:g}.")
         return number
 
-    return _typed(convert, "number")
+    bad = [("wrong type", "abc"), ("not finite", "nan"), ("below the range", str(low - 1))]
+    return _typed(convert, "number", [*bad, ("above the range", str(high + 1))])
 
 
 def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
@@ -134,12 +145,14 @@ def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
             out.append(number)
         return tuple(out)
 
-    return _typed(convert, "list")
+    bad = [("wrong type", "abc"), ("one item not a number", f"{low:g},x"), ("empty", ",")]
+    return _typed(convert, "list", [*bad, ("above the range", str(high + 1)), ("not finite", "nan")])
 
 
 def choice(valid: Sequence[str]) -> Callable[[str], str]:
     """One of ``valid`` (with a did-you-mean suggestion)."""
-    return checked(lambda value: check_choice("value", value, valid), "choice")
+    bad = [("unknown name", "bogus"), ("wrong type", "5"), ("empty", "")]
+    return checked(lambda value: check_choice("value", value, valid), "choice", bad=bad)
 
 
 def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
@@ -151,7 +164,8 @@ def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
             raise SimroadError(f"value: expected comma-separated names from {', '.join(valid)}, got {value!r}.")
         return tuple(check_choice("value", v, valid) for v in items)
 
-    return checked(check, "list")
+    bad = [("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5")]
+    return checked(check, "list", bad=bad)
 
 
 def text() -> Callable[[str], str]:
@@ -162,7 +176,7 @@ def text() -> Callable[[str], str]:
             raise argparse.ArgumentTypeError("expected a non-empty value, got ''.")
         return value
 
-    return _typed(convert, "text")
+    return _typed(convert, "text", [("empty", ""), ("blank", "  ")])
 
 
 def output_dir() -> Callable[[str], str]:
@@ -172,7 +186,7 @@ def output_dir() -> Callable[[str], str]:
         check_output_dir("out", value)
         return value
 
-    return checked(check, "directory")
+    return checked(check, "directory", bad=[("below a regular file", "{file}/sub"), ("a regular file", "{file}")])
 
 
 def output_file(suffixes: Callable[[], Iterable[str]] | None = None) -> Callable[[str], str]:
@@ -182,7 +196,10 @@ def output_file(suffixes: Callable[[], Iterable[str]] | None = None) -> Callable
         check_output_file("out", value, suffixes=None if suffixes is None else suffixes())
         return value
 
-    return checked(check, "file")
+    bad = [("below a regular file", "{file}/sub/out.png"), ("a directory", "{dir}")]
+    if suffixes is not None:
+        bad.append(("unsupported file type", "{dir}/out.xyz"))
+    return checked(check, "file", bad=bad)
 
 
 def input_dir() -> Callable[[str], str]:
@@ -196,7 +213,7 @@ def input_dir() -> Callable[[str], str]:
             raise argparse.ArgumentTypeError(f"{value!r} is not a directory; expected an existing directory.")
         return value
 
-    return _typed(convert, "directory")
+    return _typed(convert, "directory", [("missing", "{missing}"), ("a regular file", "{file}")])
 
 
 def input_file() -> Callable[[str], str]:
@@ -212,7 +229,7 @@ def input_file() -> Callable[[str], str]:
             raise argparse.ArgumentTypeError(f"{value!r} is not readable.")
         return value
 
-    return _typed(convert, "file")
+    return _typed(convert, "file", [("missing", "{missing}"), ("a directory", "{dir}")])
 
 
 class _Given:

@@ -102,9 +102,12 @@ class EpisodeSpec:
                 f"{', '.join(f'{k}=...' for k in clash if k in _SPEC_FIELDS) or 'nothing'} to EpisodeSpec "
                 "instead (longitudinal and duration_s follow from the driver and steps)."
             )
-        RoadCamConfig.from_kwargs(
-            scenario=self.scenario, noise=self.noise, severity=self.severity, traffic=self.traffic, **self.env_options
-        )
+        own = {"scenario": self.scenario, "noise": self.noise, "severity": self.severity, "traffic": self.traffic}
+        RoadCamConfig.from_kwargs(**own)
+        try:
+            RoadCamConfig.from_kwargs(**own, **self.env_options)
+        except SimroadError as exc:
+            raise SimroadError(f"env_options: {exc}") from None
 
 
 #: RoadCam options the spec sets itself (so not allowed in ``env_options``).

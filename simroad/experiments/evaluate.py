@@ -106,7 +106,10 @@ def model_factory(path: str | os.PathLike) -> DetectorFactory:
     set to those filters."""
     from simroad.detector import RoadDetector
 
-    base = RoadDetector.load(path)
+    try:
+        base = RoadDetector.load(path)
+    except SimroadError as exc:
+        raise SimroadError(f"model: {exc}") from None
 
     def factory(filters: tuple[str, ...]) -> Any:
         if filters == tuple(base.filters):

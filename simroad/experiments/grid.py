@@ -40,6 +40,15 @@ def _split(name: str, value: Any) -> list[str]:
     return items
 
 
+def _canonical_noise(spec: str) -> str:
+    from simroad.noise import parse_noise
+
+    try:
+        return "+".join(parse_noise(spec)) or "clear"
+    except SimroadError as exc:
+        raise SimroadError(f"noises: {exc}") from None
+
+
 def _numbers(name: str, value: Any) -> list[float]:
     """A comma-separated string or a list of numbers as floats, naming the bad item."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
@@ -79,10 +88,8 @@ class AblationGrid:
     oracle: bool = True
 
     def __post_init__(self) -> None:
-        from simroad.noise import parse_noise
-
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
-        noises = tuple("+".join(parse_noise(n)) or "clear" for n in _split("noises", self.noises))
+        noises = tuple(_canonical_noise(n) for n in _split("noises", self.noises))
         sev = tuple(check_in_range("severities", v, 0.0, 1.0) for v in _numbers("severities", self.severities))
         filt = tuple(format_filters(parse_filters(f)) for f in _split("filters", self.filters))
         for name, vals in (("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt)):
