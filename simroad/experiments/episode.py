@@ -38,7 +38,14 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_bool, check_choice, check_in_range, check_int_in_range
+from simroad._validation import (
+    SimroadError,
+    check_bool,
+    check_choice,
+    check_in_range,
+    check_int_in_range,
+    check_output_file,
+)
 from simroad.control.drivers import DRIVER_NAMES, make_driver
 from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
@@ -80,6 +87,11 @@ class EpisodeSpec:
     def __post_init__(self) -> None:
         check_int_in_range("steps", self.steps, 1, 1_000_000)
         check_int_in_range("seed", self.seed, 0, 2**31 - 1)
+        if not isinstance(self.filters, (str, list, tuple)):
+            raise SimroadError(
+                f"filters: expected 'none', 'all', names joined by '+' or a tuple of names, got "
+                f"{type(self.filters).__name__} {self.filters!r}."
+            )
         object.__setattr__(self, "filters", parse_filters(self.filters))
         if isinstance(self.driver, str):
             check_choice("driver", self.driver, DRIVER_NAMES)
@@ -143,6 +155,8 @@ def run_episode(
     """
     if not isinstance(spec, EpisodeSpec):
         raise SimroadError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
+    if video is not None:
+        check_output_file("video", video, suffixes=(".mp4", ".gif"))
     t_start = time.perf_counter()
     period = get_scenario(spec.scenario).policy_period_s
     duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)
