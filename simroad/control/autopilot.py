@@ -35,14 +35,14 @@ def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, 
     bearing of the target relative to the heading and ``l_d`` its distance.
     """
     try:
-        x, y, h = (float(v) for v in pose)
-        tx, ty = float(target[0]), float(target[1])
+        x, y, h = pose
+        dx, dy = target[0] - x, target[1] - y
+        float(dx), float(dy), float(h)
     except (TypeError, ValueError, IndexError, KeyError):
         raise SimroadError(
             f"pose, target: expected pose=(x, y, heading) and target=(x, y) numbers, got {pose!r} and {target!r}."
         ) from None
     check_in_range("wheelbase_m", wheelbase_m, 0.0, 100.0, unit="m", low_inclusive=False)
-    dx, dy = tx - x, ty - y
     ld = math.hypot(dx, dy)
     if ld < 1e-6:
         return 0.0
