@@ -14,7 +14,6 @@ import inspect
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from simroad._validation import SimroadError
 from simroad.camera.geometry import CameraConfig
 from simroad.cli import commands
 from simroad.cli import types as T
@@ -30,44 +29,16 @@ from simroad.experiments.figures import camera_figure, figure_suffixes
 from simroad.experiments.filter_effect import filter_effect_table
 from simroad.experiments.grid import AblationGrid
 from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
-from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters, parse_filters
-from simroad.noise import NOISE_NAMES, parse_noise
+from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters
+from simroad.noise import NOISE_NAMES
 
 __all__ = ["build_parser"]
 
 
-def _noise(value: str) -> str:
-    parse_noise(value)
-    return value
-
-
-def _noise_list(value: str) -> str:
-    items = [v.strip() for v in value.split(",") if v.strip()]
-    if not items:
-        raise SimroadError(f"value: expected comma-separated weathers such as clear,rain, got {value!r}.")
-    for item in items:
-        parse_noise(item)
-    return value
-
-
-def _filters(value: str) -> str:
-    parse_filters(value)
-    return value
-
-
-def _filter_list(value: str) -> str:
-    items = [v.strip() for v in value.split(",") if v.strip()]
-    if not items:
-        raise SimroadError(f"value: expected comma-separated filter sets such as none,all, got {value!r}.")
-    for item in items:
-        parse_filters(item)
-    return value
-
-
-_NOISE = T.checked(_noise, "noise", bad=[("unknown name", "rian"), ("repeated", "rain+rain"), ("empty", "")])
-_FILTERS = T.checked(_filters, "filters", bad=[("unknown name", "bogus"), ("wrong type", "5")])
-_NOISES = T.checked(_noise_list, "list", bad=[("unknown name", "clear,rian"), ("empty", ",")])
-_FILTER_SETS = T.checked(_filter_list, "list", bad=[("unknown name", "none,bogus"), ("empty", ",")])
+_NOISE = T.weather()
+_FILTERS = T.filter_set()
+_NOISES = T.weather_list()
+_FILTER_SETS = T.filter_set_list()
 _UNIT = T.float_in(0.0, 1.0)
 _INT = T.int_in(1, 100_000)  # image sizes: the camera checks its own range
 _STEPS = T.int_in(1, 1_000_000)

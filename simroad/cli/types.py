@@ -26,6 +26,8 @@ __all__ = [
     "checked",
     "choice",
     "choice_list",
+    "filter_set",
+    "filter_set_list",
     "finite_float",
     "float_in",
     "float_list",
@@ -166,6 +168,47 @@ def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
 
     bad = [("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5")]
     return checked(check, "list", bad=bad)
+
+
+def _each(value: str, check: Callable[[str], Any], example: str) -> str:
+    items = [v.strip() for v in value.split(",") if v.strip()]
+    if not items:
+        raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
+    for item in items:
+        check(item)
+    return value
+
+
+def weather() -> Callable[[str], str]:
+    """A weather spec such as ``rain`` or ``rain+glare`` (returned as typed)."""
+    from simroad.noise import parse_noise
+
+    bad = [("unknown name", "rian"), ("repeated", "rain+rain"), ("empty", "")]
+    return checked(lambda value: (parse_noise(value), value)[1], "noise", bad=bad)
+
+
+def weather_list() -> Callable[[str], str]:
+    """Comma-separated weather specs (returned as typed)."""
+    from simroad.noise import parse_noise
+
+    bad = [("unknown name", "clear,rian"), ("empty", ",")]
+    return checked(lambda value: _each(value, parse_noise, "clear,rain+glare"), "list", bad=bad)
+
+
+def filter_set() -> Callable[[str], str]:
+    """A filter setting: ``none``, ``all`` or names joined by ``+`` (returned as typed)."""
+    from simroad.filters import parse_filters
+
+    bad = [("unknown name", "bogus"), ("wrong type", "5")]
+    return checked(lambda value: (parse_filters(value), value)[1], "filters", bad=bad)
+
+
+def filter_set_list() -> Callable[[str], str]:
+    """Comma-separated filter settings (returned as typed)."""
+    from simroad.filters import parse_filters
+
+    bad = [("unknown name", "none,bogus"), ("empty", ",")]
+    return checked(lambda value: _each(value, parse_filters, "none,all"), "list", bad=bad)
 
 
 def text() -> Callable[[str], str]:
