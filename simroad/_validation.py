@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -259,3 +261,64 @@ def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -
     raise SimroadError(
         f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. Pass rng=np.random.default_rng(seed)."
     )
+
+
+# --- output paths (issue 13): checked before any work, nothing created -------------
+
+
+def _nearest_existing(p: Path) -> Path:
+    """The path itself or its closest ancestor that exists."""
+    for candidate in (p, *p.parents):
+        if candidate.exists() or candidate.is_symlink():
+            return candidate
+    return Path(p.anchor)
+
+
+def check_output_dir(name: str, path: Any) -> Path:
+    """Check that ``path`` is, or can be created as, a writable directory; return a Path.
+
+    Nothing is created: the first existing ancestor must be a writable directory
+    (not a regular file, which would make every folder below it impossible).
+    """
+    if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
+        raise SimroadError(f"{name}: expected a directory path, got {type(path).__name__} {path!r}.")
+    p = Path(path)
+    base = _nearest_existing(p)
+    if base == p and not p.is_dir():
+        raise SimroadError(f"{name}: {str(p)!r} is a file, not a directory. Choose a writable directory path.")
+    if not base.is_dir():
+        raise SimroadError(
+            f"{name}: {str(p)!r} lies below {str(base)!r}, which is a file, not a directory. Choose a writable path."
+        )
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise SimroadError(
+            f"{name}: {str(base)!r} is not writable, so {str(p)!r} cannot be written. Choose another path."
+        )
+    return p
+
+
+def check_output_file(name: str, path: Any, *, suffixes: Iterable[str] | None = None) -> Path:
+    """Check that a file can be written at ``path`` (its folder may still be missing); return a Path.
+
+    ``suffixes`` (lower case, with the dot) restricts the file name's extension.
+    Nothing is created.
+    """
+    if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
+        raise SimroadError(f"{name}: expected a file path, got {type(path).__name__} {path!r}.")
+    p = Path(path)
+    if p.is_dir():
+        raise SimroadError(f"{name}: {str(p)!r} is a directory; give a file path inside it.")
+    if suffixes is not None:
+        valid = sorted(set(suffixes))
+        if p.suffix.lower() not in valid:
+            raise SimroadError(
+                f"{name}: cannot write {str(p)!r}: the file type {p.suffix or '(none)'!r} is not supported; "
+                f"expected a name ending in one of {', '.join(valid)}."
+            )
+    check_output_dir(name, p.parent)
+    if p.exists() and not os.access(p, os.W_OK):
+        raise SimroadError(f"{name}: {str(p)!r} exists and is not writable. Choose another path.")
+    return p
+
+
+__all__ += ["check_output_dir", "check_output_file"]

@@ -1,11 +1,11 @@
-"""Shared input checks (simroad._validation)."""
+"""The shared input checks of simroad._validation (each engineer adds tests for their checkers)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError, check_array, check_image
+from simroad._validation import SimroadError, check_array, check_bool, check_image, check_output_dir, check_output_file
 
 
 # --- check_array and the finite-value message (issue 13, models) ---------------------------------
@@ -36,3 +36,45 @@ def test_check_image_names_non_finite_values():
     img[1, 2, 0] = -np.inf
     with pytest.raises(SimroadError, match=r"^image: expected finite values, got 1 NaN or infinite value\(s\)"):
         check_image("image", img)
+
+
+@pytest.mark.parametrize("value", [True, False, np.bool_(True), np.bool_(False)])
+def test_check_bool_accepts_bools(value):
+    assert check_bool("flag", value) is bool(value)
+
+
+@pytest.mark.parametrize("value", ["yes", "no", "False", 0, 1, 2, None, 1.0, [True]])
+def test_check_bool_refuses_everything_else_by_name(value):
+    with pytest.raises(SimroadError, match=r"^flag: expected True or False"):
+        check_bool("flag", value)
+
+
+def test_check_output_dir_creates_nothing(tmp_path):
+    target = tmp_path / "a" / "b"
+    assert check_output_dir("out", target) == target
+    assert not (tmp_path / "a").exists()
+
+
+def test_check_output_dir_refuses_a_file_and_paths_below_one(tmp_path):
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("x")
+    with pytest.raises(SimroadError, match=r"^out: .* is a file, not a directory"):
+        check_output_dir("out", blocker)
+    with pytest.raises(SimroadError, match=r"^out: .* lies below .*file\.txt'"):
+        check_output_dir("out", blocker / "sub" / "dir")
+    with pytest.raises(SimroadError, match=r"^out: expected a directory path, got int 5"):
+        check_output_dir("out", 5)
+
+
+def test_check_output_file(tmp_path):
+    assert check_output_file("figure", tmp_path / "new" / "f.png", suffixes=(".png",)).name == "f.png"
+    assert not (tmp_path / "new").exists()
+    with pytest.raises(SimroadError, match=r"^figure: .* is a directory"):
+        check_output_file("figure", tmp_path)
+    with pytest.raises(SimroadError, match=r"^figure: cannot write .*'\.xyz' is not supported; .*\.png"):
+        check_output_file("figure", tmp_path / "f.xyz", suffixes=(".png", ".pdf"))
+    (tmp_path / "file.txt").write_text("x")
+    with pytest.raises(SimroadError, match=r"^figure: .*file\.txt"):
+        check_output_file("figure", tmp_path / "file.txt" / "f.png")
+    with pytest.raises(SimroadError, match=r"^figure: expected a file path"):
+        check_output_file("figure", "")

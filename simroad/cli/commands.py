@@ -10,11 +10,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
-from simroad.experiments.ablate import run_ablation
+from simroad._validation import SimroadError, check_choice, check_output_dir
+from simroad.cli.types import MAX_SEED, given
+from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
 from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
 from simroad.experiments.export import export_frames
 from simroad.experiments.figures import camera_figure
@@ -37,6 +40,7 @@ __all__ = [
     "cmd_report",
     "cmd_train",
     "cmd_videos",
+    "refuse_flags",
     "seed_range",
 ]
 
@@ -47,8 +51,24 @@ RUN_KEYS = ("workers", "backend", "ray_address", "out")
 
 
 def seed_range(start: int, count: int) -> range:
-    """``count`` seeds from ``start``."""
+    """``count`` seeds from ``start`` (the last one must still be a valid seed)."""
+    if start + count - 1 > MAX_SEED:
+        raise SimroadError(
+            f"--seed-start/--seeds: the seeds {start}..{start + count - 1} pass the largest seed {MAX_SEED}; "
+            "lower --seed-start or --seeds."
+        )
     return range(start, start + count)
+
+
+def refuse_flags(args: argparse.Namespace, dests: tuple[str, ...], mode: str) -> None:
+    """Refuse options the user gave that do not apply in ``mode`` (exit status 2)."""
+    bad = [d for d in dests if d in given(args)]
+    if bad:
+        flags = ", ".join("--" + d.replace("_", "-") for d in bad)
+        raise SimroadError(
+            f"{flags}: {'does' if len(bad) == 1 else 'do'} not apply {mode} and would be ignored; drop "
+            f"{'it' if len(bad) == 1 else 'them'}."
+        )
 
 
 def camera_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -70,6 +90,8 @@ def cmd_frames(args: argparse.Namespace) -> int:
 def cmd_episode(args: argparse.Namespace) -> int:
     """``simroad episode``: run one episode, print its record, check ``--require`` gates."""
     requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
+    if args.driver == "oracle" and parse_filters(args.filters):
+        refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")
     spec = EpisodeSpec(
         scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
         driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
@@ -100,7 +122,20 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
         return 2
     out = run.pop("out")
-    records = run_ablation(AblationGrid(**opts), out, **run, fresh=args.fresh, progress=not args.quiet)
+    check_output_dir("out", out)
+    if "backend" in run:
+        check_choice("backend", run["backend"], BACKENDS)
+    if "ray_address" in run and run.get("backend", "local") != "ray":
+        raise SimroadError(
+            "--ray-address (ray_address): does not apply with the local backend; add --backend ray (backend = "
+            '"ray" in the config) to join a Ray cluster, or drop it.'
+        )
+    if "ray_address" in run and "workers" in run:
+        raise SimroadError(
+            "--workers (workers): does not apply with --ray-address (the cluster's CPUs run the episodes); drop it."
+        )
+    grid = AblationGrid(**opts)
+    records = run_ablation(grid, out, **run, fresh=args.fresh, progress=not args.quiet)
     paths = build_report(out)
     failed = sum(1 for r in records if r.get("error"))
     print(
@@ -126,12 +161,18 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """``simroad evaluate-detector``: score filter settings on frames; optional figure."""
+    if args.images is not None or args.masks is not None:
+        if args.images is None or args.masks is None:
+            raise SimroadError("--images/--masks: give both folders (images and their road masks), or neither.")
+        refuse_flags(args, ("scenario", "noise", "severity", "seeds", "seed_start", "frames"),
+                     "with --images (the frames are read from the folder, not rendered)")  # fmt: skip
+    seeds = seed_range(args.seed_start, args.seeds)
     rows, frows = evaluate_detector(
-        args.filters.split(","),
-        scenarios=args.scenario.split(","),
+        [f.strip() for f in args.filters.split(",") if f.strip()],
+        scenarios=args.scenario,
         noise=args.noise,
         severity=args.severity,
-        seeds=seed_range(args.seed_start, args.seeds),
+        seeds=seeds,
         frames_per_seed=args.frames,
         images=args.images or None,
         masks=args.masks or None,
@@ -156,10 +197,10 @@ def cmd_filter_effect(args: argparse.Namespace) -> int:
     seeds = seed_range(args.seed_start, args.seeds)
     cache: dict = {}
     out = []
-    for severity in (float(s) for s in args.severity.split(",")):
-        for variant in args.variant.split(","):
+    for severity in args.severity:
+        for variant in args.variant:
             factory = lambda f, v=variant: RoadDetector.pretrained(filters=f, filter_variant=v)  # noqa: E731
-            rows = filter_effect_table(seeds=seeds, frames=args.frames, severity=severity, noises=args.noises.split(","),
+            rows = filter_effect_table(seeds=seeds, frames=args.frames, severity=severity, noises=args.noises,
                                        detector_factory=factory, cache=cache)  # fmt: skip
             out.append({"severity": severity, "variant": variant, "rows": rows})
             if not args.json:
@@ -173,6 +214,10 @@ def cmd_filter_effect(args: argparse.Namespace) -> int:
 
 def cmd_figure(args: argparse.Namespace) -> int:
     """``simroad figure``: draw a README figure."""
+    if args.what == "weather" and Path(args.out).suffix.lower() != ".png":
+        raise SimroadError(
+            f"--out: the weather gallery is written as PNG; give a name ending in .png, got {args.out!r}."
+        )
     if args.what == "camera":
         path = camera_figure(args.out, seed=args.seed)
     else:

@@ -1,7 +1,10 @@
 """Run the ``simroad`` command line: parse, dispatch to the subcommand, map errors to exit codes.
 
-Exit status: 0 on success, 2 on bad input (with a message saying what to fix),
-1 when a requirement (``--require``) is violated, 130 when interrupted.
+Exit status: 0 on success, 2 on bad input (with a message saying what to fix,
+naming the flag or config key; no traceback), 1 when a requirement (``--require``)
+is violated, 130 when interrupted. Every value is checked as it is parsed
+(:mod:`simroad.cli.types`) or by the library's config objects, before any episode,
+frame or training runs. ``--help`` exits through ``SystemExit(0)`` as argparse does.
 """
 
 from __future__ import annotations
@@ -18,7 +21,12 @@ __all__ = ["build_parser", "main"]
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help exits 0 as usual; a bad value returns 2
+        if exc.code in (0, None):
+            raise
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         return int(args.func(args))
     except SimroadError as exc:

@@ -16,6 +16,7 @@ from typing import Any
 
 from simroad.camera.geometry import CameraConfig
 from simroad.cli import commands
+from simroad.cli import types as T
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
@@ -24,7 +25,7 @@ from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.evaluate import evaluate_detector
 from simroad.experiments.export import export_frames
-from simroad.experiments.figures import camera_figure
+from simroad.experiments.figures import camera_figure, figure_suffixes
 from simroad.experiments.filter_effect import filter_effect_table
 from simroad.experiments.grid import AblationGrid
 from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
@@ -32,6 +33,16 @@ from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format
 from simroad.noise import NOISE_NAMES
 
 __all__ = ["build_parser"]
+
+
+_NOISE = T.weather()
+_FILTERS = T.filter_set()
+_NOISES = T.weather_list()
+_FILTER_SETS = T.filter_set_list()
+_UNIT = T.float_in(0.0, 1.0)
+_INT = T.int_in(1, 100_000)  # image sizes: the camera checks its own range
+_STEPS = T.int_in(1, 1_000_000)
+_COUNT = T.int_in(1, 100_000)
 
 
 def _default(owner: Callable[..., Any], name: str) -> Any:
@@ -53,27 +64,34 @@ def _add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) -
     """Weather, scenario and camera options; their defaults are ``defaults``' fields."""
     g = p.add_argument_group("environment")
     scenario, noise, severity = (_default(defaults, k) for k in ("scenario", "noise", "severity"))
-    g.add_argument("--scenario", default=scenario, help=f"{_names(SCENARIO_NAMES)} (default: {scenario})")
+    g.add_argument(
+        "--scenario",
+        # checked by the library's config (RoadCamConfig / EpisodeSpec) before any work;
+        # its message "scenario: unknown value ..." names the flag
+        default=scenario,
+        help=f"{_names(SCENARIO_NAMES)} (default: {scenario})",
+    )
     g.add_argument(
         "--noise",
+        type=_NOISE,
         default=noise,
         help=f"{_names(NOISE_NAMES)}, or a composition like rain+glare (default: {noise})",
     )
-    g.add_argument("--severity", type=float, default=severity, help=f"weather severity in [0, 1] (default: {severity})")
+    g.add_argument("--severity", type=_UNIT, default=severity, help=f"weather severity in [0, 1] (default: {severity})")
     cam = {k: _default(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg")}
-    g.add_argument("--width", type=int, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
+    g.add_argument("--width", type=_INT, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
     g.add_argument(
-        "--height", type=int, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
+        "--height", type=_INT, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
     )
     g.add_argument(
         "--hfov",
-        type=float,
+        type=T.finite_float(),
         default=cam["hfov_deg"],
         help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
     )
     g.add_argument(
         "--pitch",
-        type=float,
+        type=T.finite_float(),
         default=cam["pitch_deg"],
         help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
     )
@@ -93,10 +111,17 @@ def _add_frames(sub: Any) -> None:
     )
     _add_env_options(p, RoadCamConfig)
     d = {k: _default(export_frames, k) for k in ("seed", "count", "every")}
-    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
-    p.add_argument("--count", type=int, default=d["count"], help=f"number of frames (default: {d['count']})")
-    p.add_argument("--every", type=int, default=d["every"], help=f"policy steps between frames (default: {d['every']})")
-    p.add_argument("--out", required=True, help="output directory (created)")
+    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument(
+        "--count", type=T.int_in(1, 100_000), default=d["count"], help=f"number of frames (default: {d['count']})"
+    )
+    p.add_argument(
+        "--every",
+        type=T.int_in(1, 1000),
+        default=d["every"],
+        help=f"policy steps between frames (default: {d['every']})",
+    )
+    p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=commands.cmd_frames)
 
@@ -112,24 +137,35 @@ def _add_episode(sub: Any) -> None:
     filters = format_filters(d["filters"])
     p.add_argument(
         "--filters",
+        type=_FILTERS,
         default=filters,
         help=f"detector filters: none, all, or names joined by '+' ({_names(FILTER_NAMES)}), e.g. shadow+light (default: {filters})",
     )
-    p.add_argument("--driver", default=d["driver"], help=f"{_names(DRIVER_NAMES)} (default: {d['driver']})")
-    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument(
+        "--driver",
+        type=T.choice(DRIVER_NAMES),
+        default=d["driver"],
+        help=f"{_names(DRIVER_NAMES)} (default: {d['driver']})",
+    )
+    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument(
         "--steps",
-        type=int,
+        type=_STEPS,
         default=d["steps"],
         help=f"maximum policy steps, one camera frame and action each (default: {d['steps']})",
     )
     p.add_argument(
         "--route-m",
-        type=float,
+        type=T.float_in(1.0, 1e6, unit="m"),
         default=None,
         help="route length in m (default: the scenario's route -- one racetrack lap or 1 km -- capped at what 80%% of the cruise speed covers in --steps)",
     )
-    p.add_argument("--video", default=None, help="write an .mp4 or .gif of the episode")
+    p.add_argument(
+        "--video",
+        type=T.output_file(lambda: (".mp4", ".gif")),
+        default=None,
+        help="write an .mp4 or .gif of the episode",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object with the record")
     p.add_argument(
         "--require",
@@ -148,24 +184,36 @@ def _add_ablate(sub: Any) -> None:
         description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
     )
     d = {k: _shown(_default(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
-    p.add_argument("--config", help="a TOML file with the same names as keys (flags override it)")
-    p.add_argument("--scenarios", help=f"comma-separated: {_names(SCENARIO_NAMES)} (default: {d['scenarios']})")
+    p.add_argument("--config", type=T.input_file(), help="a TOML file with the same names as keys (flags override it)")
+    p.add_argument(
+        "--scenarios",
+        type=T.choice_list(SCENARIO_NAMES),
+        help=f"comma-separated: {_names(SCENARIO_NAMES)} (default: {d['scenarios']})",
+    )
     p.add_argument(
         "--noises",
+        type=_NOISES,
         help=f"comma-separated: {_names(NOISE_NAMES)} or compositions like rain+glare (default: {d['noises']})",
     )
-    p.add_argument("--severities", help=f"comma-separated values in [0, 1] (default: {d['severities']})")
+    p.add_argument(
+        "--severities",
+        type=T.float_list(0.0, 1.0),
+        help=f"comma-separated values in [0, 1] (default: {d['severities']})",
+    )
     p.add_argument(
         "--filters",
+        type=_FILTER_SETS,
         help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTER_NAMES)}) (default: {d['filters']})",
     )
-    p.add_argument("--seeds", type=int, help=f"number of seeds (default: {d['seeds']})")
-    p.add_argument("--seed-start", dest="seed_start", type=int, help=f"first seed (default: {d['seed_start']})")
-    p.add_argument("--steps", type=int, help=f"policy steps per episode (default: {d['steps']})")
-    p.add_argument("--workers", type=int, help="parallel episodes (default: all cores)")
-    p.add_argument("--backend", help=f"{_names(BACKENDS)} (default: {_default(run_ablation, 'backend')})")
-    p.add_argument("--ray-address", dest="ray_address", help="Ray cluster address (with --backend ray)")
-    p.add_argument("--out", help="output directory")
+    p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
+    p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
+    p.add_argument("--steps", type=_STEPS, help=f"policy steps per episode (default: {d['steps']})")
+    p.add_argument("--workers", type=T.int_in(1, 4096), help="parallel episodes (default: all cores)")
+    p.add_argument(
+        "--backend", type=T.choice(BACKENDS), help=f"{_names(BACKENDS)} (default: {_default(run_ablation, 'backend')})"
+    )
+    p.add_argument("--ray-address", dest="ray_address", type=T.text(), help="Ray cluster address (with --backend ray)")
+    p.add_argument("--out", type=T.output_dir(), help="output directory")
     p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=commands.cmd_ablate)
@@ -175,7 +223,7 @@ def _add_ablate(sub: Any) -> None:
         help="rebuild a sweep's tables and figures from results.jsonl",
         description="Rebuild summary.csv, summary.md, summary.json, error_rates.png and safety.png from DIR/results.jsonl.",
     )
-    p.add_argument("dir", help="the sweep's output directory")
+    p.add_argument("dir", type=T.input_dir(), help="the sweep's output directory")
     p.set_defaults(func=commands.cmd_report)
 
 
@@ -187,17 +235,20 @@ def _add_detector(sub: Any) -> None:
     )
     p.add_argument("--out", default=DEFAULT_MODEL_FILE, help=f"output .npz (default: ./{DEFAULT_MODEL_FILE})")
     p.add_argument(
-        "--seeds", type=int, default=len(TRAIN_SEEDS), help=f"number of training worlds (default: {len(TRAIN_SEEDS)})"
+        "--seeds",
+        type=_COUNT,
+        default=len(TRAIN_SEEDS),
+        help=f"number of training worlds (default: {len(TRAIN_SEEDS)})",
     )
     p.add_argument(
         "--seed-start",
-        type=int,
+        type=T.seed(),
         default=TRAIN_SEEDS[0],
         help=f"first seed (default: {TRAIN_SEEDS[0]}; evaluation uses seeds >= 100)",
     )
     p.add_argument(
         "--frames",
-        type=int,
+        type=_COUNT,
         default=TRAIN_FRAMES_PER_SEED,
         help=f"frames per scenario and seed (default: {TRAIN_FRAMES_PER_SEED})",
     )
@@ -214,32 +265,46 @@ def _add_detector(sub: Any) -> None:
     )
     p.add_argument(
         "--scenario",
+        type=T.choice_list(SCENARIO_NAMES),
         default=_shown(d["scenarios"]),
         help=f"comma-separated scenarios (default: {_shown(d['scenarios'])})",
     )
-    p.add_argument("--noise", default=d["noise"], help=f"weather of the rendered frames (default: {d['noise']})")
     p.add_argument(
-        "--severity", type=float, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
+        "--noise", type=_NOISE, default=d["noise"], help=f"weather of the rendered frames (default: {d['noise']})"
+    )
+    p.add_argument(
+        "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
     )
     p.add_argument(
         "--filters",
+        type=_FILTER_SETS,
         default=_shown(d["settings"]),
         help=f"comma-separated filter settings (default: {_shown(d['settings'])})",
     )
     p.add_argument(
-        "--seeds", type=int, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
+        "--seeds", type=_COUNT, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
     )
-    p.add_argument("--seed-start", type=int, default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    p.add_argument("--seed-start", type=T.seed(), default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
     p.add_argument(
         "--frames",
-        type=int,
+        type=_COUNT,
         default=d["frames_per_seed"],
         help=f"frames per scenario and seed (default: {d['frames_per_seed']})",
     )
-    p.add_argument("--images", help="folder of real images (instead of rendered frames)")
-    p.add_argument("--masks", help="folder of their road masks (same file names, or road_N for frame_N)")
-    p.add_argument("--model", help="a detector .npz (e.g. from train-detector) to evaluate instead of the shipped one")
-    p.add_argument("--figure", help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG")
+    p.add_argument("--images", type=T.input_dir(), help="folder of real images (instead of rendered frames)")
+    p.add_argument(
+        "--masks", type=T.input_dir(), help="folder of their road masks (same file names, or road_N for frame_N)"
+    )
+    p.add_argument(
+        "--model",
+        type=T.input_file(),
+        help="a detector .npz (e.g. from train-detector) to evaluate instead of the shipped one",
+    )
+    p.add_argument(
+        "--figure",
+        type=T.output_file(figure_suffixes),
+        help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG",
+    )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=commands.cmd_evaluate)
 
@@ -252,23 +317,28 @@ def _add_detector(sub: Any) -> None:
     )
     p.add_argument(
         "--severity",
+        type=T.float_list(0.0, 1.0),
         default=_shown(d["severity"]),
         help=f"comma-separated severities in [0, 1] (default: {d['severity']})",
     )
     p.add_argument(
-        "--noises", default=_shown(d["noises"]), help=f"comma-separated noises (default: {_shown(d['noises'])})"
+        "--noises",
+        type=T.choice_list(tuple(d["noises"])),
+        default=_shown(d["noises"]),
+        help=f"comma-separated noises (default: {_shown(d['noises'])})",
     )
     p.add_argument(
         "--variant",
+        type=T.choice_list(FILTER_VARIANTS),
         default=variant,
         help=f"comma-separated filter variants: {_names(FILTER_VARIANTS)} (default: {variant})",
     )
     p.add_argument(
-        "--seeds", type=int, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
+        "--seeds", type=_COUNT, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
     )
-    p.add_argument("--seed-start", type=int, default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    p.add_argument("--seed-start", type=T.seed(), default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
     p.add_argument(
-        "--frames", type=int, default=d["frames"], help=f"frames per scenario and seed (default: {d['frames']})"
+        "--frames", type=_COUNT, default=d["frames"], help=f"frames per scenario and seed (default: {d['frames']})"
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=commands.cmd_filter_effect)
@@ -281,9 +351,11 @@ def _add_pictures(sub: Any) -> None:
         description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).",
     )
     p.add_argument("what", choices=("camera", "weather"), help="which figure")
-    p.add_argument("--out", required=True, help="output PNG path")
+    p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
     seed = _default(camera_figure, "seed")
-    p.add_argument("--seed", type=int, default=seed, help=f"seed (default: {seed})")
+    p.add_argument(
+        "--seed", type=T.int_in(0, T.MAX_SEED - len(SCENARIO_NAMES)), default=seed, help=f"seed (default: {seed})"
+    )
     p.set_defaults(func=commands.cmd_figure)
 
     d = {k: _default(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
@@ -292,12 +364,17 @@ def _add_pictures(sub: Any) -> None:
         help="write the demo's videos: one detector episode per noise",
         description="Drive one short episode per noise with the detector and all filters and write OUT/NOISE.gif: the camera view with the predicted road mask (green), the ground-truth outline (yellow) and a bird's-eye inset with the trajectory.",
     )
-    p.add_argument("--out", required=True, help="output directory (created)")
-    p.add_argument("--scenario", default=d["scenario"], help=f"{_names(SCENARIO_NAMES)} (default: {d['scenario']})")
-    p.add_argument("--seed", type=int, default=d["seed"], help=f"episode seed (default: {d['seed']})")
-    p.add_argument("--steps", type=int, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")
+    p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
     p.add_argument(
-        "--severity", type=float, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
+        "--scenario",
+        type=T.choice(SCENARIO_NAMES),
+        default=d["scenario"],
+        help=f"{_names(SCENARIO_NAMES)} (default: {d['scenario']})",
+    )
+    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    p.add_argument("--steps", type=_STEPS, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")
+    p.add_argument(
+        "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=commands.cmd_videos)
@@ -308,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="simroad", description="Closed-loop camera road detection testbed in bad weather."
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=T.GivenParser)
     sub.required = True
     for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures):
         add(sub)

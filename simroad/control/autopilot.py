@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from simroad._validation import SimroadError, check_in_range
 from simroad.envs.routes import follow_lanes
 
 __all__ = [
@@ -33,8 +34,15 @@ def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, 
     Classic pure pursuit: ``delta = atan(2 L sin(alpha) / l_d)``, with ``alpha`` the
     bearing of the target relative to the heading and ``l_d`` its distance.
     """
-    x, y, h = pose
-    dx, dy = target[0] - x, target[1] - y
+    try:
+        x, y, h = pose
+        dx, dy = target[0] - x, target[1] - y
+        float(dx), float(dy), float(h)
+    except (TypeError, ValueError, IndexError, KeyError):
+        raise SimroadError(
+            f"pose, target: expected pose=(x, y, heading) and target=(x, y) numbers, got {pose!r} and {target!r}."
+        ) from None
+    check_in_range("wheelbase_m", wheelbase_m, 0.0, 100.0, unit="m", low_inclusive=False)
     ld = math.hypot(dx, dy)
     if ld < 1e-6:
         return 0.0
@@ -80,6 +88,12 @@ def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m
     min_lookahead_m : float
         Shortest look-ahead in m.
     """
+    if not hasattr(road, "network"):
+        raise SimroadError(f"road: expected a highway-env Road (env.highway_env.road), got {type(road).__name__}.")
+    if not all(hasattr(vehicle, a) for a in ("position", "heading", "speed", "LENGTH")):
+        raise SimroadError(f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}.")
+    check_in_range("lookahead_s", lookahead_s, 0.0, 10.0, unit="s")
+    check_in_range("min_lookahead_m", min_lookahead_m, 0.0, 200.0, unit="m", low_inclusive=False)
     ld = max(min_lookahead_m, lookahead_s * float(vehicle.speed))
     target = lane_lookahead_point(road, vehicle, ld)
     # Rear axle: the point of highway-env's kinematic bicycle that moves along the heading.

@@ -131,6 +131,13 @@ def make_driver(
     if callable(driver) and not isinstance(driver, str):
         return CallableDriver(driver)
     check_choice("driver", driver, DRIVER_NAMES)
+    from simroad.envs import RoadCamEnv
+
+    if not isinstance(getattr(env, "unwrapped", env), RoadCamEnv):
+        raise SimroadError(
+            f"env: expected a RoadCamEnv (e.g. gymnasium.make(...).unwrapped), got {type(env).__name__}."
+        )
+    env = env.unwrapped
     if not env.config.longitudinal:
         raise SimroadError("env: mask drivers control speed too; create the environment with longitudinal=True.")
     if control is None:

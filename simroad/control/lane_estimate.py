@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -47,6 +48,14 @@ class PathEstimate:
     coeffs: np.ndarray = field(default_factory=lambda: np.zeros(3))  # path Y(X), highest power first
 
 
+def _check_camera_and_config(camera: Any, config: Any) -> None:
+    """Refuse a camera that is not a PinholeCamera and a config that is not a ControllerConfig."""
+    if not isinstance(camera, PinholeCamera):
+        raise SimroadError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
+    if config is not None and not isinstance(config, ControllerConfig):
+        raise SimroadError(f"config: expected a ControllerConfig or None, got {type(config).__name__}.")
+
+
 class LaneEstimator:
     """Read the road edges and the ego-lane path off bool road masks of one camera.
 
@@ -62,6 +71,7 @@ class LaneEstimator:
     """
 
     def __init__(self, camera: PinholeCamera, config: ControllerConfig | None = None) -> None:
+        _check_camera_and_config(camera, config)
         self.camera = camera
         self.config = c = config or ControllerConfig()
         ground = camera.ego_ground

@@ -11,10 +11,11 @@ import math
 
 import numpy as np
 
+from simroad._validation import check_finite_number
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
-from simroad.control.lane_estimate import LaneEstimator, PathEstimate
+from simroad.control.lane_estimate import LaneEstimator, PathEstimate, _check_camera_and_config
 
 __all__ = ["ACCEL_RANGE_M_S2", "ControllerConfig", "MaskLaneKeeper", "PathEstimate"]
 
@@ -35,6 +36,7 @@ class MaskLaneKeeper:
     """
 
     def __init__(self, camera: PinholeCamera, config: ControllerConfig | None = None) -> None:
+        _check_camera_and_config(camera, config)
         self.camera = camera
         self.config = config or ControllerConfig()
         self.estimator = LaneEstimator(camera, self.config)
@@ -64,6 +66,7 @@ class MaskLaneKeeper:
         -------
         ndarray of float32, shape (2,)
         """
+        check_finite_number("speed_m_s", speed_m_s)
         est = self.estimator.read_path(mask)
         self.last = est
         self.estimator.remember(est)

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice, check_in_range
+from simroad._validation import SimroadError, check_bool, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
-from simroad.noise import parse_noise
+from simroad.noise import MODELS, parse_noise
 
 __all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
@@ -35,7 +36,9 @@ class RoadCamConfig:
     severity : float
         Weather severity in [0, 1], mapped to physical parameters (docs/weather.md).
     noise_params : dict, optional
-        Physical parameters per noise, overriding the severity mapping.
+        Physical parameters per noise, overriding the severity mapping, e.g.
+        ``{"rain": RainParams(rate_mm_h=50)}``; every key must be one of the active
+        noises of ``noise`` (parameters for a noise that is not active are refused).
     longitudinal : bool
         If True the action is ``[steering, acceleration]``, else ``[steering]`` at
         constant speed.
@@ -78,6 +81,9 @@ class RoadCamConfig:
         if not isinstance(self.noise, str):
             raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
         object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
+        check_bool("longitudinal", self.longitudinal)
+        check_bool("traffic", self.traffic)
+        _check_noise_params(self.noise_params, self.noise)
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> RoadCamConfig:
@@ -100,3 +106,27 @@ class RoadCamConfig:
                 raise SimroadError("camera: pass either camera=CameraConfig(...) or camera keywords, not both.")
             own_kw["camera"] = CameraConfig(**cam_kw)
         return cls(**own_kw)
+
+
+def _check_noise_params(params: Any, noise: str) -> None:
+    """Refuse ``noise_params`` that are not a dict of the active noises' Params."""
+    if params is None:
+        return
+    if not isinstance(params, Mapping):
+        raise SimroadError(
+            f"noise_params: expected a dict noise name -> Params such as {{'rain': RainParams(...)}}, "
+            f"got {type(params).__name__}."
+        )
+    active = parse_noise(noise)
+    for key, value in params.items():
+        if key not in active:
+            where = f"the active noises are {', '.join(map(repr, active))}" if active else "the weather is 'clear'"
+            raise SimroadError(
+                f"noise_params: parameters for {key!r}, which is not active (noise={noise!r}; {where}). "
+                f"Add {key!r} to noise (e.g. noise='{noise}+{key}') or drop its parameters."
+                if active
+                else f"noise_params: parameters for {key!r}, but {where}. Set noise={key!r} or drop noise_params."
+            )
+        want = MODELS[key].params_type
+        if not isinstance(value, want):
+            raise SimroadError(f"noise_params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")

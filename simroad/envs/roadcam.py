@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from simroad._validation import SimroadError, check_choice
+from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.camera import CameraRenderer, PinholeCamera, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
 from simroad.envs.config import RoadCamConfig
@@ -18,6 +18,19 @@ from simroad.envs.scenarios import POLICY_HZ, get_scenario
 from simroad.noise import NoiseContext, Weather, make_weather
 
 __all__ = ["RoadCamEnv"]
+
+
+def _action_array(action: Any, shape: tuple[int, ...] | None) -> np.ndarray:
+    """The action as a flat float64 array, refusing what is not numbers (strings, dicts, None)."""
+    n = shape[0] if shape else 1
+    hint = f"expected {n} number(s) in [-1, 1] (an array of shape {shape})"
+    if isinstance(action, (str, bytes)) or action is None:
+        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.")
+    try:
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.") from None
+    return a
 
 
 class RoadCamEnv(gym.Env):
@@ -122,6 +135,8 @@ class RoadCamEnv(gym.Env):
                 f"options: RoadCamEnv.reset takes no options, got {sorted(map(str, options))}. "
                 "Configure the environment with its constructor keywords instead."
             )
+        if seed is not None:
+            check_int_in_range("seed", seed, 0, 2**63 - 1)
         super().reset(seed=seed)
         rng = self.np_random
         self._hw.reset(seed=int(rng.integers(2**31 - 1)))
@@ -146,7 +161,7 @@ class RoadCamEnv(gym.Env):
         return self._observe(crashed=False)
 
     def step(self, action):
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        a = _action_array(action, self.action_space.shape)
         if a.shape != self.action_space.shape:
             raise SimroadError(f"action: expected shape {self.action_space.shape}, got {np.shape(action)}.")
         if not np.all(np.isfinite(a)):
@@ -176,6 +191,10 @@ class RoadCamEnv(gym.Env):
         """Bird's-eye view of the world around the ego (heading up), uint8 (H, W, 3)."""
         if self.world is None:
             raise SimroadError("render_bev() called before reset().")
+        if isinstance(size, (str, bytes)) or not isinstance(size, (tuple, list)) or len(size) != 2:
+            raise SimroadError(f"size: expected (height, width) in pixels, got {size!r}.")
+        size = (check_int_in_range("size[0]", size[0], 8, 4096), check_int_in_range("size[1]", size[1], 8, 4096))
+        metres_per_px = check_in_range("metres_per_px", metres_per_px, 0.0, 100.0, low_inclusive=False)
         ego = self._box(self.vehicle, rgb=(255, 255, 255))
         rgb, _ = render_bev(
             self.world, self._pose(), size=size, metres_per_px=metres_per_px, vehicles=self._others(), ego=ego

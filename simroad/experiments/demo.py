@@ -14,6 +14,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from simroad._validation import SimroadError, check_output_dir
 from simroad.experiments.episode import EpisodeSpec, run_episode
 from simroad.experiments.export import ensure_writable_dir
 from simroad.filters import parse_filters
@@ -58,19 +59,18 @@ def write_videos(
     list of Path
         The videos written, in the order of ``noises``.
     """
+    if isinstance(noises, str) or not noises:
+        raise SimroadError(f"noises: expected a tuple of weathers such as ('clear', 'rain'), got {noises!r}.")
+    check_output_dir("out", out)
+    specs = [  # every episode checked before the first one runs
+        EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=parse_filters("all"),
+                    seed=seed, steps=steps, route_m=1e4)
+        for noise in noises
+    ]  # fmt: skip
     directory = ensure_writable_dir("out", out)
     paths = []
-    for noise in tqdm(noises, desc="videos", unit="video", disable=not progress):
+    for noise, spec in tqdm(list(zip(noises, specs)), desc="videos", unit="video", disable=not progress):
         path = directory / f"{noise}.gif"
-        spec = EpisodeSpec(
-            scenario=scenario,
-            noise=noise,
-            severity=severity,
-            filters=parse_filters("all"),
-            seed=seed,
-            steps=steps,
-            route_m=1e4,
-        )
         run_episode(spec, video=str(path))
         paths.append(path)
     return paths

@@ -32,15 +32,22 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range, check_int_in_range
+from simroad._validation import (
+    SimroadError,
+    check_bool,
+    check_choice,
+    check_in_range,
+    check_int_in_range,
+    check_output_file,
+)
 from simroad.control.drivers import DRIVER_NAMES, make_driver
-from simroad.envs import RoadCamEnv, get_scenario
+from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
 from simroad.experiments.video import EpisodeVideo
 from simroad.filters import FILTER_NAMES, format_filters, parse_filters  # re-exported here for old imports
@@ -80,12 +87,44 @@ class EpisodeSpec:
     def __post_init__(self) -> None:
         check_int_in_range("steps", self.steps, 1, 1_000_000)
         check_int_in_range("seed", self.seed, 0, 2**31 - 1)
+        if not isinstance(self.filters, (str, list, tuple)):
+            raise SimroadError(
+                f"filters: expected 'none', 'all', names joined by '+' or a tuple of names, got "
+                f"{type(self.filters).__name__} {self.filters!r}."
+            )
         object.__setattr__(self, "filters", parse_filters(self.filters))
         if isinstance(self.driver, str):
             check_choice("driver", self.driver, DRIVER_NAMES)
         if self.route_m is not None:
             check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
+        self._check_env()
 
+    def _check_env(self) -> None:
+        """Validate the environment's options now, not when the episode starts."""
+        check_bool("traffic", self.traffic)
+        if not isinstance(self.env_options, Mapping):
+            raise SimroadError(
+                f"env_options: expected a dict of RoadCam options such as {{'width': 640}}, "
+                f"got {type(self.env_options).__name__}."
+            )
+        clash = sorted(set(self.env_options) & set(_SPEC_ENV_KEYS))
+        if clash:
+            raise SimroadError(
+                f"env_options: {', '.join(map(repr, clash))} set by the spec itself; pass "
+                f"{', '.join(f'{k}=...' for k in clash if k in _SPEC_FIELDS) or 'nothing'} to EpisodeSpec "
+                "instead (longitudinal and duration_s follow from the driver and steps)."
+            )
+        own = {"scenario": self.scenario, "noise": self.noise, "severity": self.severity, "traffic": self.traffic}
+        RoadCamConfig.from_kwargs(**own)
+        try:
+            RoadCamConfig.from_kwargs(**own, **self.env_options)
+        except SimroadError as exc:
+            raise SimroadError(f"env_options: {exc}") from None
+
+
+#: RoadCam options the spec sets itself (so not allowed in ``env_options``).
+_SPEC_ENV_KEYS = ("scenario", "noise", "severity", "traffic", "longitudinal", "duration_s")
+_SPEC_FIELDS = ("scenario", "noise", "severity", "traffic")
 
 #: Longest episode time limit in simulated s (``EpisodeSpec.steps`` beyond it are cut).
 _MAX_DURATION_S = 1e3
@@ -114,6 +153,10 @@ def run_episode(
     video : path, optional
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
     """
+    if not isinstance(spec, EpisodeSpec):
+        raise SimroadError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
+    if video is not None:
+        check_output_file("video", video, suffixes=(".mp4", ".gif"))
     t_start = time.perf_counter()
     period = get_scenario(spec.scenario).policy_period_s
     duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)

@@ -16,9 +16,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError
+from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.envs import SCENARIO_NAMES
-from simroad.experiments.frames import FrameSet, collect_frames
+from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.training import HELD_OUT_SEEDS
 from simroad.filters import format_filters, parse_filters
 from simroad.metrics.mask import MaskScore
@@ -106,7 +106,10 @@ def model_factory(path: str | os.PathLike) -> DetectorFactory:
     set to those filters."""
     from simroad.detector import RoadDetector
 
-    base = RoadDetector.load(path)
+    try:
+        base = RoadDetector.load(path)
+    except SimroadError as exc:
+        raise SimroadError(f"model: {exc}") from None
 
     def factory(filters: tuple[str, ...]) -> Any:
         if filters == tuple(base.filters):
@@ -202,11 +205,17 @@ def evaluate_detector(
     rows, filter_rows : list of dict
         As :func:`evaluate_frames` returns them.
     """
+    if isinstance(settings, str) or not settings:
+        raise SimroadError(f"settings: expected a list of filter settings such as ['none', 'all'], got {settings!r}.")
     parsed = [parse_filters(f) for f in settings]
-    factory = model_factory(model) if model is not None else None
     if images is not None or masks is not None:
         if images is None or masks is None:
             raise SimroadError("images: --images and --masks go together.")
+    else:
+        check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
+        check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
+    factory = model_factory(model) if model is not None else None
+    if images is not None and masks is not None:
         frames = load_image_folder(images, masks)
     else:
         frames = collect_frames(
@@ -238,6 +247,12 @@ def qualitative_figure(
 ) -> Path:
     """The paper's Figs. 3-6 for every noise: the noisy frame, the mask without
     filters, the mask with all filters, and the ground-truth outline."""
+    from simroad.experiments.figures import check_figure_path
+
+    out = check_figure_path("figure", path)
+    check_choice("scenario", scenario, SCENARIO_NAMES)
+    seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
+    severity = check_in_range("severity", severity, 0.0, 1.0)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -264,7 +279,7 @@ def qualitative_figure(
             ax.set_title(title, fontsize=8)
             ax.axis("off")
     fig.tight_layout()
-    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=85)
     plt.close(fig)
     return out

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from simroad._validation import SimroadError, check_int_in_range
+from simroad._validation import SimroadError, check_int_in_range, check_output_dir
 from simroad.envs import RoadCamEnv
 from simroad.experiments.rollout import drive_autopilot
 
@@ -66,8 +66,12 @@ def export_frames(
     env_kwargs : dict
         Keyword arguments of ``simroad/RoadCam-v0`` (scenario, noise, width, ...).
     """
+    seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
     count = check_int_in_range("count", count, 1, 100_000)
     every = check_int_in_range("every", every, 1, 1000)
+    if env_kwargs is not None and not isinstance(env_kwargs, dict):
+        raise SimroadError(f"env_kwargs: expected a dict of RoadCam options, got {type(env_kwargs).__name__}.")
+    check_output_dir("out", out)
     env = RoadCamEnv(**(env_kwargs or {}))  # validate every option before touching the disk
     out_dir = ensure_writable_dir("out", out)
     obs, info = env.reset(seed=int(seed))

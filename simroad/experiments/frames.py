@@ -7,11 +7,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simroad._validation import check_int_in_range
-from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.envs import SCENARIO_NAMES, RoadCamConfig, RoadCamEnv
 from simroad.experiments.rollout import drive_autopilot
+from simroad.noise import parse_noise
 
-__all__ = ["FrameSet", "collect_frames"]
+__all__ = ["FrameSet", "check_frame_protocol", "collect_frames"]
 
 
 @dataclass
@@ -23,6 +24,29 @@ class FrameSet:
     noise_masks: list[dict[str, np.ndarray]] = field(default_factory=list)
     valid: list[np.ndarray] = field(default_factory=list)
     source: list[tuple[str, int, int]] = field(default_factory=list)  # (scenario, seed, step)
+
+
+def check_frame_protocol(
+    *, scenarios: Sequence[str], seeds: Iterable[int], noise: str, severity: float
+) -> tuple[tuple[str, ...], tuple[int, ...]]:
+    """Validate which frames to render before the first one is: scenarios (one or more
+    known names), seeds (one or more integers in [0, 2**31 - 1]), the weather spec and
+    its severity in [0, 1]. Returns the scenarios and seeds as tuples."""
+    if isinstance(scenarios, str) or not isinstance(scenarios, Iterable):
+        raise SimroadError(
+            f"scenarios: expected a list of scenario names, got {type(scenarios).__name__} {scenarios!r}."
+        )
+    names = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in scenarios)
+    if not names:
+        raise SimroadError(f"scenarios: expected at least one of {', '.join(SCENARIO_NAMES)}, got none.")
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, Iterable):
+        raise SimroadError(f"seeds: expected a list or range of integer seeds, got {type(seeds).__name__} {seeds!r}.")
+    worlds = tuple(check_int_in_range("seeds", s, 0, 2**31 - 1) for s in seeds)
+    if not worlds:
+        raise SimroadError("seeds: expected at least one seed, got none (e.g. range(100, 105)).")
+    parse_noise(noise)
+    check_in_range("severity", severity, 0.0, 1.0)
+    return names, worlds
 
 
 def collect_frames(
@@ -53,8 +77,13 @@ def collect_frames(
     steer_noise : float
         Standard deviation of the steering action added to the autopilot's.
     """
+    scenarios, seeds = check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
     frames_per_seed = check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
     every = check_int_in_range("every", every, 1, 1000)
+    check_in_range("steer_noise", steer_noise, 0.0, 2.0)
+    if env_options is not None and not isinstance(env_options, dict):
+        raise SimroadError(f"env_options: expected a dict of RoadCam options, got {type(env_options).__name__}.")
+    RoadCamConfig.from_kwargs(scenario=scenarios[0], noise=noise, severity=severity, **(env_options or {}))
     out = FrameSet()
     for scenario in scenarios:
         for seed in seeds:

@@ -13,7 +13,14 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad._validation import (
+    SimroadError,
+    check_bool,
+    check_choice,
+    check_finite_number,
+    check_in_range,
+    check_int_in_range,
+)
 from simroad.envs.config import SCENARIO_NAMES
 from simroad.experiments.episode import EpisodeSpec, format_filters, parse_filters
 
@@ -31,6 +38,35 @@ def _split(name: str, value: Any) -> list[str]:
     if not items:
         raise SimroadError(f"{name}: the list is empty; give at least one value.")
     return items
+
+
+def _canonical_noise(spec: str) -> str:
+    from simroad.noise import parse_noise
+
+    try:
+        return "+".join(parse_noise(spec)) or "clear"
+    except SimroadError as exc:
+        raise SimroadError(f"noises: {exc}") from None
+
+
+def _numbers(name: str, value: Any) -> list[float]:
+    """A comma-separated string or a list of numbers as floats, naming the bad item."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = [value]
+    items = value if isinstance(value, (list, tuple)) else _split(name, value)
+    if not items:
+        raise SimroadError(f"{name}: the list is empty; give at least one value.")
+    out = []
+    for item in items:
+        if isinstance(item, str):
+            try:
+                item = float(item.strip())
+            except ValueError:
+                raise SimroadError(
+                    f"{name}: {item!r} is not a number; expected numbers such as 0.3,0.7 (in {value!r})."
+                ) from None
+        out.append(check_finite_number(name, item))
+    return out
 
 
 @dataclass(frozen=True)
@@ -52,11 +88,9 @@ class AblationGrid:
     oracle: bool = True
 
     def __post_init__(self) -> None:
-        from simroad.noise import parse_noise
-
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
-        noises = tuple("+".join(parse_noise(n)) or "clear" for n in _split("noises", self.noises))
-        sev = tuple(check_in_range("severities", float(v), 0.0, 1.0) for v in _split("severities", self.severities))
+        noises = tuple(_canonical_noise(n) for n in _split("noises", self.noises))
+        sev = tuple(check_in_range("severities", v, 0.0, 1.0) for v in _numbers("severities", self.severities))
         filt = tuple(format_filters(parse_filters(f)) for f in _split("filters", self.filters))
         for name, vals in (("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt)):
             if len(set(vals)) != len(vals):
@@ -68,6 +102,8 @@ class AblationGrid:
         check_int_in_range("seeds", self.seeds, 1, 100_000)
         check_int_in_range("seed_start", self.seed_start, 0, 2**31 - 1 - self.seeds)
         check_int_in_range("steps", self.steps, 1, 1_000_000)
+        check_bool("traffic", self.traffic)
+        check_bool("oracle", self.oracle)
 
     def specs(self) -> list[EpisodeSpec]:
         """Every episode of the grid, in a fixed order."""
@@ -114,12 +150,16 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     """Read a TOML grid file; keys are AblationGrid's fields (``seed-start`` or
     ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``."""
     p = Path(path)
+    if p.is_dir():
+        raise SimroadError(f"config: {str(p)!r} is a directory; give a TOML file such as {str(p / 'grid.toml')!r}.")
     try:
         data = tomllib.loads(p.read_text())
     except FileNotFoundError:
         raise SimroadError(f"config: file {str(p)!r} not found.") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SimroadError(f"config: {str(p)!r} is not valid TOML ({exc}).") from None
+    except OSError as exc:
+        raise SimroadError(f"config: cannot read {str(p)!r} ({exc.strerror}).") from None
     valid = [f.name for f in fields(AblationGrid)] + ["workers", "backend", "ray_address", "out"]
     out = {}
     for key, value in data.items():
@@ -128,5 +168,28 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
             close = difflib.get_close_matches(k, valid, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
             raise SimroadError(f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}")
-        out[k] = value
+        out[k] = _check_run_key(k, value, p) if k in RUN_KEY_TYPES else value
     return out
+
+
+#: Keys of a grid file (and ``simroad ablate`` flags) that configure the run, not the
+#: grid, with what each must be.
+RUN_KEY_TYPES: dict[str, str] = {
+    "workers": "an integer >= 1",
+    "backend": "a string ('local' or 'ray')",
+    "ray_address": "a string such as 'auto' or '10.0.0.1:6379'",
+    "out": "a directory path string",
+}
+
+
+def _check_run_key(key: str, value: Any, path: Path) -> Any:
+    """A run key's value of the right type, else an error naming the key and the file."""
+    if key == "workers":
+        ok = isinstance(value, int) and not isinstance(value, bool) and value >= 1
+    else:
+        ok = isinstance(value, str) and value.strip() != ""
+    if not ok:
+        raise SimroadError(
+            f"config: {key} in {str(path)!r}: expected {RUN_KEY_TYPES[key]}, got {type(value).__name__} {value!r}."
+        )
+    return value

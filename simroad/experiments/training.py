@@ -6,9 +6,9 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from simroad._validation import SimroadError
+from simroad._validation import SimroadError, check_int_in_range
 from simroad.envs import SCENARIO_NAMES
-from simroad.experiments.frames import collect_frames
+from simroad.experiments.frames import check_frame_protocol, collect_frames
 
 __all__ = [
     "DEFAULT_MODEL_FILE",
@@ -82,6 +82,9 @@ def train_detector(
     """
     from simroad.detector import train_default
 
+    check_frame_protocol(scenarios=scenarios, seeds=seeds, noise="clear", severity=0.0)
+    check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
+    check_int_in_range("seed", seed, 0, 2**32 - 1)
     path = check_writable_file("out", out)
     frames = collect_frames(scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, every=6)
     det = train_default(frames.images, frames.masks, rng=seed)

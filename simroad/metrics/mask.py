@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_mask
+from simroad._validation import SimroadError, check_int_in_range, check_mask
 
 __all__ = ["MaskScore", "confusion", "error_rates", "rates_from_counts"]
 
@@ -58,6 +58,8 @@ def rates_from_counts(tp: int, fp: int, fn: int, tn: int) -> dict[str, float]:
     ``recall = 1 - FNR``, ``F1 = 2 TP / (2 TP + FP + FN)``, ``IoU = TP / (TP + FP + FN)``;
     ``nan`` where a denominator is 0.
     """
+    for name, count in (("tp", tp), ("fp", fp), ("fn", fn), ("tn", tn)):
+        check_int_in_range(name, count, 0, 2**62)
     return {
         "fnr": _ratio(fn, tp + fn),
         "fpr": _ratio(fp, fp + tn),

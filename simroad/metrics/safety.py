@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from simroad._validation import SimroadError, check_in_range
 from simroad.camera.lanes import lane_signed_distance, supports_vectorised
 
 __all__ = ["PENALTIES", "SafetyScore", "footprint_corners"]
@@ -46,6 +47,8 @@ PENALTIES = {"collision": 0.60, "offroad": 0.65, "lane_departure": 0.95}
 
 def footprint_corners(vehicle) -> np.ndarray:
     """World (x, y) of the 4 corners of a highway-env vehicle's footprint, (4, 2)."""
+    if not all(hasattr(vehicle, a) for a in ("position", "heading", "LENGTH", "WIDTH")):
+        raise SimroadError(f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}.")
     h = float(vehicle.heading)
     fwd = np.array([math.cos(h), math.sin(h)])
     right = np.array([-math.sin(h), math.cos(h)])
@@ -96,6 +99,10 @@ class SafetyScore:
     _was_off: bool = False
     _was_departed: bool = False
     _was_crashed: bool = False
+
+    def __post_init__(self) -> None:
+        check_in_range("dt", self.dt, 0.0, 60.0, unit="s", low_inclusive=False)
+        check_in_range("route_length_m", self.route_length_m, 0.0, 1e9, unit="m")
 
     def update(self, road, vehicle, info: dict) -> None:
         """Record one step from the highway-env ``road`` and ego ``vehicle``."""

@@ -111,7 +111,12 @@ class Weather:
     """
 
     def __init__(self, names: tuple[str, ...], *, severity: float, params: NoiseParams | None = None) -> None:
-        self.names = tuple(names)
+        if isinstance(names, str) or not isinstance(names, (tuple, list)):
+            raise SimroadError(
+                f"names: expected a tuple of noise names such as ('rain', 'glare') (or use make_weather('rain+glare')), "
+                f"got {type(names).__name__} {names!r}."
+            )
+        self.names = tuple(check_choice("names", n, tuple(MODELS)) for n in names)
         self.severity = check_in_range("severity", severity, 0.0, 1.0)
         given = check_noise_params(params, self.names)
         self.models: dict[str, NoiseModel] = {

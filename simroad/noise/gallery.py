@@ -15,7 +15,7 @@ import pathlib
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_int_in_range
+from simroad._validation import SimroadError, check_int_in_range, check_output_file
 from simroad.noise.compose import make_weather
 from simroad.noise.scene import sample_context, sample_scene
 
@@ -50,9 +50,9 @@ def render_gallery(path: str | os.PathLike, *, seed: int = 0) -> pathlib.Path:
     pathlib.Path
         The written file (a palette PNG, a few hundred kB).
     """
-    path = pathlib.Path(path)
-    if path.suffix.lower() != ".png":
-        raise SimroadError(f"path: expected a .png file name, got {str(path)!r}.")
+    if not isinstance(path, (str, os.PathLike)) or pathlib.Path(path).suffix.lower() != ".png":
+        raise SimroadError(f"path: expected a .png file name, got {path!r}.")
+    path = check_output_file("path", path, suffixes=(".png",))  # before any rendering
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
     frame, cam, world = sample_scene(seed)
     ctx = sample_context(frame, cam)

@@ -14,7 +14,7 @@ the spoiled frame (same shape and dtype as the input) and a dict noise name -> b
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import Any, ClassVar
 
@@ -22,6 +22,8 @@ import numpy as np
 
 from simroad._validation import (
     SimroadError,
+    check_bool,
+    check_finite_number,
     check_image,
     check_in_range,
     check_int_in_range,
@@ -66,12 +68,25 @@ class Limit:
     optional: bool = False
     length: int | None = None
 
+    def __post_init__(self) -> None:
+        low = check_finite_number("low", self.low)
+        high = check_finite_number("high", self.high)
+        if low > high:
+            raise SimroadError(f"low: expected at most high={high:g}, got {low:g}.")
+        if self.length is not None:
+            check_int_in_range("length", self.length, 1, 1000)
+
     def check(self, name: str, value: Any) -> Any:
         """Return ``value`` validated (as float, int or tuple of float), else raise naming ``name``."""
         if value is None and self.optional:
             return None
         if self.length is None:
             return self._check_one(name, value)
+        if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
+            raise SimroadError(
+                f"{name}: expected {self.length} values (a tuple such as {(1.0,) * self.length}), "
+                f"got {type(value).__name__} {value!r}."
+            )
         values = tuple(value)
         if len(values) != self.length:
             raise SimroadError(f"{name}: expected {self.length} values, got {len(values)}.")
@@ -102,7 +117,8 @@ class Params:
     Subclasses declare the valid range of every numeric field once, in the class
     table ``LIMITS`` (field name -> :class:`Limit`): construction validates against it
     and the Notes section of the class docstring is generated from it.
-    ``bool`` fields are converted with ``bool()``.
+    ``bool`` fields take True/False (numpy bools and the integers 0 and 1 too);
+    anything else, such as the string ``"no"``, is refused.
     """
 
     LIMITS: ClassVar[Mapping[str, Limit]] = {}
@@ -125,7 +141,7 @@ class Params:
             object.__setattr__(self, name, limit.check(name, getattr(self, name)))
         for f in fields(self):
             if f.type in ("bool", bool):
-                object.__setattr__(self, f.name, bool(getattr(self, f.name)))
+                object.__setattr__(self, f.name, _check_flag(f.name, getattr(self, f.name)))
 
     @classmethod
     def from_severity(cls, severity: float) -> Params:  # pragma: no cover - abstract
@@ -135,6 +151,13 @@ class Params:
     def is_identity(self) -> bool:
         """True when these parameters leave every frame unchanged."""
         raise NotImplementedError  # pragma: no cover - abstract
+
+
+def _check_flag(name: str, value: Any) -> bool:
+    """A bool field: True/False, numpy bools, or the integers 0 and 1."""
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value in (0, 1):
+        return bool(value)
+    return check_bool(name, value)
 
 
 class NoiseModel:

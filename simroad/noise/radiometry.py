@@ -19,12 +19,24 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from simroad._validation import SimroadError, check_int_in_range
+
 __all__ = ["GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
 
 GAMMA = 2.2
 MASK_THRESHOLD = 8
 
 _DECODE_LUT = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.float32)
+
+
+def _check_frame(name: str, image: object, dtypes: tuple[str, ...]) -> None:
+    """A cheap per-frame check (type, dtype, shape; no pass over the pixels)."""
+    if not isinstance(image, np.ndarray):
+        raise SimroadError(f"{name}: expected a numpy array (H, W, 3), got {type(image).__name__}.")
+    if image.dtype.name not in dtypes:
+        raise SimroadError(f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}.")
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise SimroadError(f"{name}: expected an array of shape (H, W, 3), got shape {image.shape}.")
 
 
 def srgb_to_linear(image: np.ndarray) -> np.ndarray:
@@ -39,6 +51,7 @@ def srgb_to_linear(image: np.ndarray) -> np.ndarray:
     ndarray, float32, (H, W, 3)
         Linear radiance, 1.0 = white.
     """
+    _check_frame("image", image, ("uint8", "float32", "float64"))
     if image.dtype == np.uint8:
         return cv2.LUT(image, _DECODE_LUT)
     return np.power(image.astype(np.float32), GAMMA, dtype=np.float32)
@@ -58,6 +71,7 @@ def linear_to_srgb(lin: np.ndarray, dtype: np.dtype | type = np.uint8) -> np.nda
     -------
     ndarray, (H, W, 3), of ``dtype``
     """
+    _check_frame("lin", lin, ("float32", "float64"))
     # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
     x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
     np.multiply(x, np.float32(1.0 / GAMMA), out=x)
@@ -80,6 +94,11 @@ def change_mask(before: np.ndarray, after: np.ndarray, threshold: int = MASK_THR
     -------
     ndarray, bool, (H, W)
     """
+    _check_frame("before", before, ("uint8",))
+    _check_frame("after", after, ("uint8",))
+    if before.shape != after.shape:
+        raise SimroadError(f"after: expected the shape of before, {before.shape}, got {after.shape}.")
+    check_int_in_range("threshold", threshold, 0, 255)
     d = cv2.absdiff(before, after)
     return np.maximum(np.maximum(d[..., 0], d[..., 1]), d[..., 2]) >= threshold
 

@@ -1,0 +1,316 @@
+"""Check every command-line value as argparse reads it: ``type=`` functions and a parser that records given flags.
+
+Each factory returns a function for ``add_argument(type=...)`` that converts the text
+or raises :class:`argparse.ArgumentTypeError`; argparse then prints
+``simroad CMD: error: argument --FLAG: <what came, what is expected>`` and exits with
+status 2, before any episode, frame or training runs. Library checks
+(:mod:`simroad._validation`) are reused, so the command line and the Python API
+refuse the same values with the same words.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from simroad._validation import SimroadError, check_choice, check_output_dir, check_output_file
+
+__all__ = [
+    "MAX_SEED",
+    "GivenParser",
+    "checked",
+    "choice",
+    "choice_list",
+    "filter_set",
+    "filter_set_list",
+    "finite_float",
+    "float_in",
+    "float_list",
+    "given",
+    "input_dir",
+    "input_file",
+    "int_in",
+    "output_dir",
+    "output_file",
+    "seed",
+    "text",
+]
+
+#: Largest seed gymnasium accepts for an environment (``reset(seed=...)``).
+MAX_SEED = 2**31 - 1
+
+_NAME_PREFIX = re.compile(r"^[A-Za-z_][A-Za-z0-9_\[\]' ]*: ")
+
+
+def _typed(fn: Callable[[str], Any], name: str, bad: Sequence[tuple[str, str]] = ()) -> Callable[[str], Any]:
+    """Name ``fn`` for argparse's messages and attach ``bad_inputs``: (why, text) pairs of
+    values it refuses (``{file}``, ``{dir}``, ``{missing}`` stand for a regular file,
+    a directory and a path that does not exist), which the test suite feeds to every
+    flag of this type."""
+    fn.__name__ = name  # argparse names the type in some messages
+    fn.bad_inputs = tuple(bad)  # type: ignore[attr-defined]
+    return fn
+
+
+def _strip_name(message: str) -> str:
+    """A library message without its leading ``name: `` (argparse names the flag)."""
+    return _NAME_PREFIX.sub("", message, count=1)
+
+
+def checked(
+    check: Callable[[str], Any], name: str = "value", *, bad: Sequence[tuple[str, str]] = ()
+) -> Callable[[str], Any]:
+    """Wrap a library check ``text -> value`` raising :class:`SimroadError`; ``bad``
+    lists values it refuses (see :func:`_typed`)."""
+
+    def convert(value: str) -> Any:
+        try:
+            return check(value)
+        except SimroadError as exc:
+            raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
+
+    return _typed(convert, name, bad)
+
+
+def int_in(low: int, high: int) -> Callable[[str], int]:
+    """An integer in ``[low, high]``."""
+
+    def convert(value: str) -> int:
+        try:
+            number = int(value.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer in [{low}, {high}], got {value!r}.") from None
+        if not low <= number <= high:
+            raise argparse.ArgumentTypeError(f"expected an integer in [{low}, {high}], got {number}.")
+        return number
+
+    bad = [("wrong type", "abc"), ("not an integer", "1.5"), ("below the range", str(low - 1))]
+    return _typed(convert, "integer", [*bad, ("above the range", str(high + 1))])
+
+
+def seed() -> Callable[[str], int]:
+    """A seed: an integer in ``[0, 2**31 - 1]`` (gymnasium refuses negative seeds)."""
+    return int_in(0, MAX_SEED)
+
+
+def _float(value: str, what: str) -> float:
+    try:
+        number = float(value.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}.") from None
+    if not math.isfinite(number):
+        raise argparse.ArgumentTypeError(f"expected {what}, got {value!r} (not finite).")
+    return number
+
+
+def finite_float() -> Callable[[str], float]:
+    """Any finite number."""
+    bad = [("wrong type", "abc"), ("not finite", "inf"), ("not a number", "nan")]
+    return _typed(lambda value: _float(value, "a finite number"), "number", bad)
+
+
+def float_in(low: float, high: float, *, unit: str = "") -> Callable[[str], float]:
+    """A number in ``[low, high]`` (``unit`` shown in the message)."""
+    what = f"a number in [{low:g}, {high:g}]" + (f" {unit}" if unit else "")
+
+    def convert(value: str) -> float:
+        number = _float(value, what)
+        if not low <= number <= high:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {number:g}.")
+        return number
+
+    bad = [("wrong type", "abc"), ("not finite", "nan"), ("below the range", str(low - 1))]
+    return _typed(convert, "number", [*bad, ("above the range", str(high + 1))])
+
+
+def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
+    """Comma-separated numbers, each in ``[low, high]``, e.g. ``0.3,0.7``."""
+    what = f"comma-separated numbers in [{low:g}, {high:g}] such as 0.3,0.7"
+
+    def convert(value: str) -> tuple[float, ...]:
+        items = [v.strip() for v in value.split(",") if v.strip()]
+        if not items:
+            raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}.")
+        out = []
+        for item in items:
+            try:
+                number = float(item)
+            except ValueError:
+                raise argparse.ArgumentTypeError(f"{item!r} is not a number; expected {what}.") from None
+            if not (math.isfinite(number) and low <= number <= high):
+                raise argparse.ArgumentTypeError(f"{item!r} is out of range; expected {what}.")
+            out.append(number)
+        return tuple(out)
+
+    bad = [("wrong type", "abc"), ("one item not a number", f"{low:g},x"), ("empty", ",")]
+    return _typed(convert, "list", [*bad, ("above the range", str(high + 1)), ("not finite", "nan")])
+
+
+def choice(valid: Sequence[str]) -> Callable[[str], str]:
+    """One of ``valid`` (with a did-you-mean suggestion)."""
+    bad = [("unknown name", "bogus"), ("wrong type", "5"), ("empty", "")]
+    return checked(lambda value: check_choice("value", value, valid), "choice", bad=bad)
+
+
+def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
+    """Comma-separated names, each one of ``valid``."""
+
+    def check(value: str) -> tuple[str, ...]:
+        items = tuple(v.strip() for v in value.split(",") if v.strip())
+        if not items:
+            raise SimroadError(f"value: expected comma-separated names from {', '.join(valid)}, got {value!r}.")
+        return tuple(check_choice("value", v, valid) for v in items)
+
+    bad = [("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5")]
+    return checked(check, "list", bad=bad)
+
+
+def _each(value: str, check: Callable[[str], Any], example: str) -> str:
+    items = [v.strip() for v in value.split(",") if v.strip()]
+    if not items:
+        raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
+    for item in items:
+        check(item)
+    return value
+
+
+def weather() -> Callable[[str], str]:
+    """A weather spec such as ``rain`` or ``rain+glare`` (returned as typed)."""
+    from simroad.noise import parse_noise
+
+    bad = [("unknown name", "rian"), ("repeated", "rain+rain"), ("empty", "")]
+    return checked(lambda value: (parse_noise(value), value)[1], "noise", bad=bad)
+
+
+def weather_list() -> Callable[[str], str]:
+    """Comma-separated weather specs (returned as typed)."""
+    from simroad.noise import parse_noise
+
+    bad = [("unknown name", "clear,rian"), ("empty", ",")]
+    return checked(lambda value: _each(value, parse_noise, "clear,rain+glare"), "list", bad=bad)
+
+
+def filter_set() -> Callable[[str], str]:
+    """A filter setting: ``none``, ``all`` or names joined by ``+`` (returned as typed)."""
+    from simroad.filters import parse_filters
+
+    bad = [("unknown name", "bogus"), ("wrong type", "5")]
+    return checked(lambda value: (parse_filters(value), value)[1], "filters", bad=bad)
+
+
+def filter_set_list() -> Callable[[str], str]:
+    """Comma-separated filter settings (returned as typed)."""
+    from simroad.filters import parse_filters
+
+    bad = [("unknown name", "none,bogus"), ("empty", ",")]
+    return checked(lambda value: _each(value, parse_filters, "none,all"), "list", bad=bad)
+
+
+def text() -> Callable[[str], str]:
+    """A non-empty string."""
+
+    def convert(value: str) -> str:
+        if not value.strip():
+            raise argparse.ArgumentTypeError("expected a non-empty value, got ''.")
+        return value
+
+    return _typed(convert, "text", [("empty", ""), ("blank", "  ")])
+
+
+def output_dir() -> Callable[[str], str]:
+    """A directory that exists or can be created (nothing is created while parsing)."""
+
+    def check(value: str) -> str:
+        check_output_dir("out", value)
+        return value
+
+    return checked(check, "directory", bad=[("below a regular file", "{file}/sub"), ("a regular file", "{file}")])
+
+
+def output_file(suffixes: Callable[[], Iterable[str]] | None = None) -> Callable[[str], str]:
+    """A file that can be written; ``suffixes()`` lists the accepted extensions."""
+
+    def check(value: str) -> str:
+        check_output_file("out", value, suffixes=None if suffixes is None else suffixes())
+        return value
+
+    bad = [("below a regular file", "{file}/sub/out.png"), ("a directory", "{dir}")]
+    if suffixes is not None:
+        bad.append(("unsupported file type", "{dir}/out.xyz"))
+    return checked(check, "file", bad=bad)
+
+
+def input_dir() -> Callable[[str], str]:
+    """An existing directory."""
+
+    def convert(value: str) -> str:
+        p = Path(value)
+        if not p.exists():
+            raise argparse.ArgumentTypeError(f"{value!r} does not exist; expected an existing directory.")
+        if not p.is_dir():
+            raise argparse.ArgumentTypeError(f"{value!r} is not a directory; expected an existing directory.")
+        return value
+
+    return _typed(convert, "directory", [("missing", "{missing}"), ("a regular file", "{file}")])
+
+
+def input_file() -> Callable[[str], str]:
+    """An existing, readable regular file."""
+
+    def convert(value: str) -> str:
+        p = Path(value)
+        if not p.exists():
+            raise argparse.ArgumentTypeError(f"{value!r} does not exist; expected an existing file.")
+        if p.is_dir():
+            raise argparse.ArgumentTypeError(f"{value!r} is a directory; expected a file.")
+        if not os.access(p, os.R_OK):
+            raise argparse.ArgumentTypeError(f"{value!r} is not readable.")
+        return value
+
+    return _typed(convert, "file", [("missing", "{missing}"), ("a directory", "{dir}")])
+
+
+class _Given:
+    """Mixin of argparse actions: remember which destinations the user set."""
+
+    def __call__(self, parser: Any, namespace: argparse.Namespace, values: Any, option_string: Any = None) -> None:
+        super().__call__(parser, namespace, values, option_string)  # type: ignore[misc]
+        given_set = getattr(namespace, "_given", None)
+        if given_set is None:
+            given_set = set()
+            namespace._given = given_set
+        given_set.add(self.dest)  # type: ignore[attr-defined]
+
+
+class _Store(_Given, argparse._StoreAction):
+    pass
+
+
+class _StoreTrue(_Given, argparse._StoreTrueAction):
+    pass
+
+
+class _Append(_Given, argparse._AppendAction):
+    pass
+
+
+class GivenParser(argparse.ArgumentParser):
+    """An ArgumentParser whose namespace records the options given on the command
+    line (see :func:`given`), so a flag that does not apply can be refused."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.register("action", None, _Store)
+        self.register("action", "store", _Store)
+        self.register("action", "store_true", _StoreTrue)
+        self.register("action", "append", _Append)
+
+
+def given(args: argparse.Namespace) -> set[str]:
+    """The destinations (``seed_start``, ...) set on the command line."""
+    return set(getattr(args, "_given", set()))

@@ -1,0 +1,269 @@
+"""Every flag of every ``simroad`` subcommand, fed wrong types, out-of-range values,
+malformed files and flags that do not apply: each must exit with status 2, name the
+flag (or config key), print no traceback, and start no episode, frame, sweep or
+training (the ``no_work`` guard turns any of those into a failure).
+
+Cases are generated from the parser itself: each option's ``type=`` function carries
+the values it refuses (``bad_inputs``, see :mod:`simroad.cli.types`), so a new flag
+with a known type is covered automatically; a flag without a generator or an entry
+in ``EXTRA`` fails :func:`test_every_flag_has_cases`. The ablate grid file's cases are
+generated from :class:`AblationGrid`'s fields and the run keys.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import pytest
+
+from simroad.cli.main import main
+from simroad.cli.parser import build_parser
+from simroad.experiments.grid import RUN_KEY_TYPES, AblationGrid
+
+
+def _subcommands() -> dict[str, argparse.ArgumentParser]:
+    parser = build_parser()
+    (action,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return dict(action.choices)
+
+
+SUBCOMMANDS = _subcommands()
+
+#: A valid command line per subcommand: positionals, then required options.
+BASE: dict[str, tuple[list[str], dict[str, str]]] = {
+    "frames": ([], {"--out": "{ok}/frames"}),
+    "episode": ([], {}),
+    "ablate": ([], {"--out": "{ok}/sweep"}),
+    "report": (["{dir}"], {}),
+    "train-detector": ([], {"--out": "{ok}/model.npz"}),
+    "evaluate-detector": ([], {}),
+    "filter-effect": ([], {}),
+    "figure": (["camera"], {"--out": "{ok}/figure.png"}),
+    "videos": ([], {"--out": "{ok}/videos"}),
+}
+
+#: Cases for flags whose type carries no ``bad_inputs`` (or that need more): (why, value).
+EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
+    ("frames", "scenario"): [("unknown name", "higway"), ("wrong type", "5")],
+    ("episode", "scenario"): [("unknown name", "higway"), ("wrong type", "5")],
+    ("frames", "width"): [("above the camera's range", "5000")],
+    ("frames", "height"): [("below the camera's range", "8")],
+    ("episode", "width"): [("below the camera's range", "8")],
+    ("episode", "height"): [("above the camera's range", "5000")],
+    ("frames", "hfov"): [("out of range", "500")],
+    ("episode", "hfov"): [("out of range", "-10")],
+    ("frames", "pitch"): [("out of range", "400")],
+    ("episode", "pitch"): [("out of range", "-400")],
+    ("episode", "require"): [("malformed", "fnr<<1"), ("unknown key", "bogus<=1"), ("not a number", "fnr<=1.2.3")],
+    ("train-detector", "out"): [("below a regular file", "{file}/model.npz"), ("a directory", "{dir}")],
+    ("ablate", "config"): [("malformed TOML", "{bad_toml}"), ("not text", "{binary}")],
+    ("evaluate-detector", "model"): [("text file", "{file}")],
+}
+
+#: Damaged model files: the models engineer's load checks (issue 13, item 5) make these pass.
+_MODELS_XFAIL = pytest.mark.xfail(
+    strict=False, reason="models engineer: RoadDetector.load must refuse truncated/empty npz files by name"
+)
+EXTRA_XFAIL: dict[tuple[str, str], list[tuple[str, str]]] = {
+    ("evaluate-detector", "model"): [("garbage npz", "{garbage}"), ("empty file", "{empty}")],
+}
+
+
+def _flag(action: argparse.Action) -> str:
+    longs = [o for o in action.option_strings if o.startswith("--")]
+    return longs[0] if longs else action.dest
+
+
+def _argv(cmd: str, action: argparse.Action, value: str | None) -> list[str]:
+    positionals, options = BASE[cmd]
+    positionals, options = list(positionals), dict(options)
+    sub = SUBCOMMANDS[cmd]
+    extra: list[str] = []
+    if not action.option_strings:  # a positional: replace it
+        pos_actions = [a for a in sub._actions if not a.option_strings]
+        positionals[pos_actions.index(action)] = value or ""
+    elif value is None:  # a store_true flag given a value
+        extra = [f"{_flag(action)}=yes"]
+    else:
+        options.pop(_flag(action), None)
+        extra = [_flag(action), value]
+    out = list(positionals)
+    for k, v in options.items():
+        out += [k, v]
+    return [cmd, *out, *extra]
+
+
+def _flag_cases() -> list:
+    cases = []
+    for cmd, sub in SUBCOMMANDS.items():
+        for action in sub._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            names = (_flag(action), action.dest)
+            if isinstance(action, argparse._StoreTrueAction):
+                cases.append(pytest.param(_argv(cmd, action, None), names, id=f"{cmd} {_flag(action)}: given a value"))
+            for why, value in getattr(action.type, "bad_inputs", ()):
+                cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
+            if action.choices is not None and action.type is None:
+                for why, value in (("unknown choice", "bogus"), ("empty", "")):
+                    cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
+            for why, value in EXTRA.get((cmd, action.dest), ()):
+                cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
+            for why, value in EXTRA_XFAIL.get((cmd, action.dest), ()):
+                cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}",
+                                          marks=_MODELS_XFAIL))  # fmt: skip
+    return cases
+
+
+FLAG_CASES = _flag_cases()
+
+
+def _run(argv: list[str], capsys) -> tuple[int, str]:
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # only --help exits this way
+        code = exc.code
+    return code, capsys.readouterr().err
+
+
+def _assert_refused(code, err: str, names) -> None:
+    assert code == 2, f"exit status {code}, stderr: {err}"
+    assert "Traceback" not in err
+    spelled = {n for name in names for n in (name, name.lstrip("-"), name.replace("_", "-"), name.replace("-", "_"))}
+    assert any(n in err for n in spelled), f"the message names none of {sorted(spelled)}: {err}"
+
+
+@pytest.fixture
+def files(paths, write):
+    paths = dict(paths)
+    paths["bad_toml"] = write("bad.toml", "scenarios = [[[ not toml")
+    paths["binary"] = write("binary.toml", b"\xff\xfe\x00\x00garbage")
+    return paths
+
+
+@pytest.mark.parametrize(("argv", "names"), FLAG_CASES)
+def test_every_flag_refuses_bad_values(argv, names, files, no_work, capsys):
+    argv = [a.format(**files) if "{" in a else a for a in argv]
+    code, err = _run(argv, capsys)
+    _assert_refused(code, err, names)
+
+
+def test_every_flag_has_cases():
+    """A new flag needs a type with ``bad_inputs`` or an EXTRA entry (two cases at
+    least: a wrong type and an out-of-range value; one for a plain on/off flag)."""
+    counts: dict[tuple[str, str], int] = {}
+    for case in FLAG_CASES:
+        argv = case.values[0]
+        cmd = argv[0]
+        key = case.id.split(":")[0].split(" ", 1)[1]
+        counts[(cmd, key)] = counts.get((cmd, key), 0) + 1
+    missing = []
+    for cmd, sub in SUBCOMMANDS.items():
+        for action in sub._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            need = 1 if isinstance(action, argparse._StoreTrueAction) else 2
+            if counts.get((cmd, _flag(action)), 0) < need:
+                missing.append(f"{cmd} {_flag(action)}")
+    assert not missing, f"flags without enough surface cases: {missing}"
+
+
+# -- flags that do not apply in the chosen mode, and combined values -------------------
+
+MODE_CASES = [
+    *(
+        pytest.param(["evaluate-detector", "--images", "{dir}", "--masks", "{dir}", flag, value], (flag,),
+                     id=f"evaluate-detector --images with {flag}")
+        for flag, value in (("--scenario", "racetrack"), ("--noise", "rain"), ("--severity", "0.5"),
+                            ("--seeds", "1"), ("--seed-start", "100"), ("--frames", "2"))
+    ),
+    pytest.param(["evaluate-detector", "--masks", "{dir}"], ("--images",), id="evaluate-detector --masks alone"),
+    pytest.param(["evaluate-detector", "--images", "{dir}"], ("--masks",), id="evaluate-detector --images alone"),
+    pytest.param(["episode", "--driver", "oracle", "--filters", "all"], ("--filters",), id="episode oracle with --filters"),
+    pytest.param(["ablate", "--out", "{ok}/s", "--ray-address", "auto"], ("--ray-address",),
+                 id="ablate --ray-address without --backend ray"),
+    pytest.param(["ablate", "--out", "{ok}/s", "--backend", "ray", "--ray-address", "auto", "--workers", "2"],
+                 ("--workers",), id="ablate --workers with --ray-address"),
+    pytest.param(["figure", "weather", "--out", "{ok}/w.pdf"], ("--out",), id="figure weather as pdf"),
+    pytest.param(["evaluate-detector", "--seed-start", "2147483647", "--seeds", "3"], ("--seed-start",),
+                 id="evaluate-detector seeds past the largest"),
+    pytest.param(["train-detector", "--out", "{ok}/m.npz", "--seed-start", "2147483646", "--seeds", "5"],
+                 ("--seed-start",), id="train-detector seeds past the largest"),
+    pytest.param(["filter-effect", "--seed-start", "2147483647", "--seeds", "2"], ("--seed-start",),
+                 id="filter-effect seeds past the largest"),
+    pytest.param(["ablate", "--out", "{ok}/s", "--seed-start", "2147483647", "--seeds", "2"], ("seed_start",),
+                 id="ablate seeds past the largest"),
+    pytest.param(["ablate"], ("--out",), id="ablate without --out"),
+    pytest.param(["evaluate-detector", "--images", "{images}", "--masks", "{images}"], ("images",),
+                 id="evaluate-detector unreadable images"),
+]  # fmt: skip
+
+
+@pytest.fixture
+def image_folder(tmp_path):
+    d = tmp_path / "images"
+    d.mkdir()
+    (d / "frame_0000.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage, not an image")
+    return str(d)
+
+
+@pytest.mark.parametrize(("argv", "names"), MODE_CASES)
+def test_flags_that_do_not_apply_are_refused(argv, names, files, image_folder, no_work, capsys):
+    files = {**files, "images": image_folder}
+    argv = [a.format(**files) if "{" in a else a for a in argv]
+    code, err = _run(argv, capsys)
+    _assert_refused(code, err, names)
+
+
+# -- the sweep's TOML file: every grid field and run key, wrong type and out of range ---
+
+_TOML_BAD = {
+    "tuple[str, ...]": [("wrong type", "5"), ("unknown name", '["bogus"]')],
+    "tuple[float, ...]": [("not a number", '[0.5, "x"]'), ("out of range", "[2.0]")],
+    "int": [("wrong type", '"3"'), ("out of range", "-1")],
+    "bool": [("string boolean", '"no"'), ("integer", "3")],
+}
+_RUN_BAD = {
+    "workers": [("wrong type", '"2"'), ("out of range", "0")],
+    "backend": [("wrong type", "5"), ("unknown name", '"bogus"')],
+    "ray_address": [("wrong type", "5"), ("empty", '""')],
+    "out": [("wrong type", "5"), ("empty", '""')],
+}
+
+
+def _toml_cases() -> list:
+    cases = []
+    for f in dataclasses.fields(AblationGrid):
+        for why, value in _TOML_BAD.get(str(f.type), ()):
+            cases.append(pytest.param(f"{f.name} = {value}\nout = '{{ok}}/s'\n", f.name, id=f"{f.name}: {why}"))
+    for key, bad in _RUN_BAD.items():
+        for why, value in bad:
+            text = f"{key} = {value}\n" + ("" if key == "out" else "out = '{ok}/s'\n")
+            cases.append(pytest.param(text, key, id=f"{key}: {why}"))
+    cases.append(pytest.param("seed-strat = 3\nout = '{ok}/s'\n", "seed-strat", id="unknown key"))
+    cases.append(pytest.param("severities = 0.5, 0.7\n", "config", id="not TOML"))
+    return cases
+
+
+TOML_CASES = _toml_cases()
+
+
+@pytest.mark.parametrize(("text", "key"), TOML_CASES)
+def test_grid_file_refuses_bad_values(text, key, files, write, no_work, capsys):
+    path = write("grid.toml", text.format(**files))
+    code, err = _run(["ablate", "--config", path], capsys)
+    _assert_refused(code, err, (key,))
+
+
+def test_every_grid_field_and_run_key_has_toml_cases():
+    keys = {c.values[1] for c in TOML_CASES}
+    missing = [f.name for f in dataclasses.fields(AblationGrid) if f.name not in keys]
+    missing += [k for k in RUN_KEY_TYPES if k not in keys]
+    assert not missing, f"grid-file keys without cases (add their type to _TOML_BAD or _RUN_BAD): {missing}"
+
+
+def test_help_still_exits_zero():
+    with pytest.raises(SystemExit) as exit_:
+        main(["frames", "--help"])
+    assert exit_.value.code == 0
