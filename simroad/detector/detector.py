@@ -25,6 +25,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from simroad._validation import (
     SimroadError,
+    check_bool,
     check_choice,
     check_image,
     check_in_range,
@@ -188,6 +189,7 @@ class RoadDetector(BaseEstimator):
         self
         """
         filters = check_filters(self.filters)
+        check_bool("morphology", self.morphology)
         C = check_in_range("C", self.C, 0.0, 1e6, low_inclusive=False)
         n_max = check_int_in_range("max_samples", self.max_samples, 2, 1_000_000)
         weight = check_in_range("nonroad_weight", self.nonroad_weight, 0.0, 1e3, low_inclusive=False)
@@ -245,7 +247,7 @@ class RoadDetector(BaseEstimator):
             mask = self._decide_rgb(filtered_rgb(image, filters, variant)).reshape(image.shape[:2])
         else:
             mask = self.lut_.lookup(filtered_uint8_planes(image, filters, variant))
-        if self.morphology:
+        if check_bool("morphology", self.morphology):
             mask = _fill_holes(_ego_component(mask))
         return mask
 
@@ -304,7 +306,7 @@ class RoadDetector(BaseEstimator):
             )
         det = cls.load(path)
         det.set_params(
-            filters=tuple(check_filters(filters)), morphology=bool(morphology),
+            filters=tuple(check_filters(filters)), morphology=check_bool("morphology", morphology),
             filter_variant=check_variant(filter_variant),
         )  # fmt: skip
         return det

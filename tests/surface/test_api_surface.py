@@ -324,13 +324,10 @@ SWEEPS_XFAIL = pytest.mark.xfail(strict=False, reason="sweeps engineer (ablate.p
 XFAIL_CASES: list[tuple[str, str, object, str]] = [
     ("run_ablation", "grid type", lambda e, p: experiments.run_ablation(5, p["ok"]), "grid"),
     ("run_cell", "spec type", lambda e, p: experiments.run_cell(5), "spec"),
+    ("ResultStore", "directory type", lambda e, p: experiments.ResultStore(5), "directory"),
 ]
-MODELS_XFAIL = pytest.mark.xfail(
-    strict=False, reason="models engineer (simroad.filters): parse_filters checks its type"
-)
 XFAIL_MODELS_CASES: list[tuple[str, str, object, str]] = [
     ("parse_filters", "wrong type", lambda e, p: experiments.parse_filters(5), "filters"),
-    ("ResultStore", "directory type", lambda e, p: experiments.ResultStore(5), "directory"),
 ]
 
 #: Public names that take no user input of their own, or are covered elsewhere.
@@ -374,7 +371,7 @@ def files(paths, write):
     ("name", "call", "param"),
     [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in FUNCTION_CASES]
     + [pytest.param(n, c, a, id=f"{n}: {why}", marks=SWEEPS_XFAIL) for n, why, c, a in XFAIL_CASES]
-    + [pytest.param(n, c, a, id=f"{n}: {why}", marks=MODELS_XFAIL) for n, why, c, a in XFAIL_MODELS_CASES],
+    + [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in XFAIL_MODELS_CASES],
 )
 def test_every_public_function_refuses_bad_input(name, call, param, env, files):
     _refused(lambda: call(env, files), param)
@@ -401,10 +398,8 @@ FILTER_CASES = [
     pytest.param(lambda: filters.remove_rain_snow("x"), "image", id="remove_rain_snow image type"),
     pytest.param(lambda: filters.remove_highlights("x"), "image", id="remove_highlights image type"),
     pytest.param(lambda: filters.remove_shadows(IMG.astype(np.int64)), "image", id="remove_shadows dtype"),
-    pytest.param(lambda: filters.box_mean(IMG.astype(np.float32), -1), "radius", id="box_mean negative radius",
-                 marks=pytest.mark.xfail(strict=False, reason="models engineer: box_mean validates (issue 13, item 9)")),
-    pytest.param(lambda: filters.box_mean([[1.0]], 1), "image", id="box_mean list",
-                 marks=pytest.mark.xfail(strict=False, reason="models engineer: box_mean validates (issue 13, item 9)")),
+    pytest.param(lambda: filters.box_mean(IMG.astype(np.float32), -1), "radius", id="box_mean negative radius"),
+    pytest.param(lambda: filters.box_mean([[1.0]], 1), "x", id="box_mean list"),
 ]  # fmt: skip
 
 
@@ -418,6 +413,10 @@ def _detector_cases():
         pytest.param(lambda: detector.pixel_features("x"), "image", id="pixel_features image type"),
         pytest.param(lambda: detector.RoadDetector(filters=["bogus"]).fit([IMG], [MASK]), "filters",
                      id="RoadDetector unknown filter"),
+        pytest.param(lambda: detector.RoadDetector.pretrained(morphology="no"), "morphology",
+                     id="pretrained string boolean"),
+        pytest.param(lambda: detector.RoadDetector.pretrained().set_params(morphology="no").predict(IMG), "morphology",
+                     id="RoadDetector string boolean"),
     ]  # fmt: skip
 
 
@@ -427,7 +426,6 @@ def test_filters_and_detector_refuse_bad_input(call, param):
 
 
 @pytest.mark.parametrize("content", [b"", b"PK\x03\x04garbage", b"\x93NUMPY not really"], ids=["empty", "bad zip", "bad npy"])  # fmt: skip
-@pytest.mark.xfail(strict=False, reason="models engineer: RoadDetector.load refuses damaged files by name (item 5)")
 def test_damaged_model_file_is_refused_by_name(content, tmp_path):
     from simroad.detector import RoadDetector
 

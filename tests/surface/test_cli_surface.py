@@ -61,11 +61,8 @@ EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("evaluate-detector", "model"): [("text file", "{file}")],
 }
 
-#: Damaged model files: the models engineer's load checks (issue 13, item 5) make these pass.
-_MODELS_XFAIL = pytest.mark.xfail(
-    strict=False, reason="models engineer: RoadDetector.load must refuse truncated/empty npz files by name"
-)
-EXTRA_XFAIL: dict[tuple[str, str], list[tuple[str, str]]] = {
+#: Damaged model files (refused by name at load: a checksummed, validated format).
+EXTRA_MODEL_FILES: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("evaluate-detector", "model"): [("garbage npz", "{garbage}"), ("empty file", "{empty}")],
 }
 
@@ -110,9 +107,8 @@ def _flag_cases() -> list:
                     cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
             for why, value in EXTRA.get((cmd, action.dest), ()):
                 cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
-            for why, value in EXTRA_XFAIL.get((cmd, action.dest), ()):
-                cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}",
-                                          marks=_MODELS_XFAIL))  # fmt: skip
+            for why, value in EXTRA_MODEL_FILES.get((cmd, action.dest), ()):
+                cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
     return cases
 
 
