@@ -6,7 +6,8 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from simroad._validation import SimroadError, check_int_in_range
+from simroad._validation import check_int_in_range
+from simroad.detector.persistence import check_model_destination
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import check_frame_protocol, collect_frames
 
@@ -31,22 +32,13 @@ DEFAULT_MODEL_FILE = "road_detector.npz"
 
 
 def check_writable_file(name: str, path: str | os.PathLike) -> Path:
-    """Check that a file can be written at ``path`` (creating its parent folders).
+    """Check that a model file can be written at ``path``, creating its parent folders.
 
-    Raises :class:`SimroadError` naming ``name`` when ``path`` is a directory, or
-    its folder cannot be created or written, or the file exists read-only.
+    The same check as :meth:`RoadDetector.save` makes
+    (:func:`~simroad.detector.check_model_destination`), run before any frame is
+    rendered; raises :class:`SimroadError` naming ``name``.
     """
-    from simroad.experiments.export import ensure_writable_dir
-
-    p = Path(path)
-    if p.is_dir():
-        raise SimroadError(
-            f"{name}: {str(p)!r} is a directory; give a file path such as {str(p / DEFAULT_MODEL_FILE)!r}."
-        )
-    ensure_writable_dir(name, p.parent)
-    if p.exists() and not os.access(p, os.W_OK):
-        raise SimroadError(f"{name}: {str(p)!r} exists and is not writable. Choose another path.")
-    return p
+    return check_model_destination(path, name=name, make_parents=True)
 
 
 def train_detector(
