@@ -8,7 +8,9 @@ and prints the outcome; it returns the exit status.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
 import sys
 from typing import Any
 
@@ -100,7 +102,12 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
         return 2
     out = run.pop("out")
-    records = run_ablation(AblationGrid(**opts), out, **run, fresh=args.fresh, progress=not args.quiet)
+    try:
+        records = run_ablation(AblationGrid(**opts), out, **run, fresh=args.fresh, progress=not args.quiet)
+    except KeyboardInterrupt:
+        with contextlib.suppress(ValueError):  # (not the main thread: nothing to do)
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # the sweep has stopped: let the exit (130) finish
+        raise
     paths = build_report(out)
     failed = sum(1 for r in records if r.get("error"))
     print(
