@@ -166,8 +166,10 @@ def run_in_workers(
     RuntimeError
         If a worker process dies (e.g. killed) while running an item.
     """
+    if not items:
+        return
     queue = list(reversed(items))
-    workers = _Workers(min(n, max(1, len(items))), cell_fn, initializer)
+    workers = _Workers(min(n, len(items)), cell_fn, initializer)
     busy: dict[Connection, Any] = {}
     graceful = False
     try:
@@ -178,22 +180,24 @@ def run_in_workers(
         while busy:
             if interrupts is not None and interrupts.count:
                 raise KeyboardInterrupt
-            ready = wait(list(busy) + [p.sentinel for p in workers.procs], timeout=_POLL_S)
+            ready = wait(list(busy), timeout=_POLL_S)  # a result, or EOF: the worker died
             for conn in [c for c in busy if c in ready]:
-                ok, value = conn.recv()
-                busy.pop(conn)
+                item = busy.pop(conn)
+                try:
+                    ok, value = conn.recv()
+                except EOFError:
+                    proc = workers.procs[workers.conns.index(conn)]
+                    proc.join(1.0)
+                    raise RuntimeError(
+                        f"a sweep worker died (exit code {proc.exitcode}) while running {item!r}; "
+                        "the rows written so far are kept: run the same command again to resume."
+                    ) from None
                 if not ok:
                     raise value
                 yield value
                 if queue and not (interrupts is not None and interrupts.count):
                     busy[conn] = queue.pop()
                     conn.send(busy[conn])
-            for conn, proc in zip(workers.conns, workers.procs):
-                if conn in busy and not proc.is_alive() and not conn.poll():
-                    raise RuntimeError(
-                        f"a sweep worker died (exit code {proc.exitcode}) while running {busy[conn]!r}; "
-                        "the rows written so far are kept: run the same command again to resume."
-                    )
         graceful = True
     finally:
         workers.stop(interrupts, graceful=graceful)

@@ -238,3 +238,25 @@ def test_ctrl_c_twice_ends_the_whole_process_tree_within_3_s_and_rows_stay_valid
     rows, bad = read_results(path)
     assert bad == [] and len(path.read_text().splitlines()) == 20 == len(rows) == len(records)
     assert sorted(cell_key(r) for r in rows) == sorted(cell_key(s) for s in grid.specs())
+
+
+# --- the worker pool -----------------------------------------------------------------------------
+
+
+def _square_or_die(x: int) -> dict:
+    if x == 3:
+        os._exit(7)  # a worker killed mid-cell (e.g. by the OOM killer)
+    if x == 4:
+        raise ValueError("bad cell 4")
+    return {"x": x * x}
+
+
+def test_pool_yields_every_result_and_reports_a_dead_worker_or_a_raised_error():
+    from simroad.experiments.pool import run_in_workers
+
+    assert sorted(r["x"] for r in run_in_workers([0, 1, 2, 5, 6], 2, _square_or_die)) == [0, 1, 4, 25, 36]
+    assert list(run_in_workers([], 2, _square_or_die)) == []
+    with pytest.raises(RuntimeError, match="worker died \\(exit code 7\\) while running 3"):
+        list(run_in_workers([0, 3, 1], 2, _square_or_die))
+    with pytest.raises(ValueError, match="bad cell 4"):
+        list(run_in_workers([4, 0], 2, _square_or_die))
