@@ -8,7 +8,9 @@ and prints the outcome; it returns the exit status.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -135,7 +137,12 @@ def cmd_ablate(args: argparse.Namespace) -> int:
             "--workers (workers): does not apply with --ray-address (the cluster's CPUs run the episodes); drop it."
         )
     grid = AblationGrid(**opts)
-    records = run_ablation(grid, out, **run, fresh=args.fresh, progress=not args.quiet)
+    try:
+        records = run_ablation(grid, out, **run, fresh=args.fresh, progress=not args.quiet)
+    except KeyboardInterrupt:
+        with contextlib.suppress(ValueError):  # (not the main thread: nothing to do)
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # the sweep has stopped: let the exit (130) finish
+        raise
     paths = build_report(out)
     failed = sum(1 for r in records if r.get("error"))
     print(

@@ -4,11 +4,15 @@ Results go to ``DIR/results.jsonl``, one record per finished episode (the
 ``simroad episode --json`` keys plus ``error``), appended by the parent process
 only, each line with one ``write`` on an ``O_APPEND`` descriptor and ``fsync``. A
 sweep killed at any moment (``kill -9`` included) leaves at most one torn last
-line; the next run drops it, skips every cell already recorded, and runs the rest,
-so the file ends with exactly one valid row per cell. ``DIR/grid.json`` pins the
-grid: a directory holding a different grid is refused unless ``fresh=True``.
+line; the next run moves it to ``results.rejected.jsonl`` (saying so), skips every
+cell already recorded, and runs the rest, so the file ends with exactly one valid
+row per cell (:mod:`simroad.experiments.results` defines a valid row).
+``DIR/grid.json`` pins the grid: a directory holding a different grid is refused
+unless ``fresh=True``. ``DIR/sweep.lock`` keeps a second sweep out of the directory
+while one runs (:mod:`simroad.experiments.outlock`). Ctrl-C ends the sweep and its
+workers (:mod:`simroad.experiments.pool`); a second Ctrl-C kills them at once.
 
-Backends: ``local`` (a process pool, the default) and ``ray`` (``pip install
+Backends: ``local`` (worker processes, the default) and ``ray`` (``pip install
 simroad[ray]``; ``ray_address`` to join a cluster). Both call the same
 :func:`run_cell`, and every episode depends only on its spec and seed, so the
 numbers are the same whatever the backend or the number of workers.
@@ -16,23 +20,26 @@ numbers are the same whatever the backend or the number of workers.
 
 from __future__ import annotations
 
-import json
+import importlib
 import math
 import os
 import traceback
-from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict
-from pathlib import Path
+from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
 from simroad._validation import SimroadError, check_choice, check_int_in_range
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, format_filters, run_episode
 from simroad.experiments.grid import AblationGrid, cell_key
+from simroad.experiments.outlock import DirectoryLocked, OutputLock
+from simroad.experiments.pool import Interrupts, run_in_workers
+from simroad.experiments.results import ResultStore  # re-exported here for old imports
 
-__all__ = ["BACKENDS", "ResultStore", "run_ablation", "run_cell"]
+__all__ = ["BACKENDS", "TEST_CELL_FN_ENV", "DirectoryLocked", "ResultStore", "run_ablation", "run_cell"]
 
 BACKENDS = ("local", "ray")
+#: For tests only: ``module:function`` replacing the default :func:`run_cell` of
+#: :func:`run_ablation` (so that the CLI can run a fast stub episode in a subprocess).
+TEST_CELL_FN_ENV = "SIMROAD_TEST_ONLY_CELL_FN"
 
 
 def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str, Any]] = run_episode) -> dict[str, Any]:
@@ -65,82 +72,6 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
     return record
 
 
-class ResultStore:
-    """Append-only JSON-lines results with crash repair.
-
-    Parameters
-    ----------
-    directory : path
-        Holds ``results.jsonl`` and ``grid.json``.
-    """
-
-    def __init__(self, directory: str | os.PathLike) -> None:
-        self.dir = Path(directory)
-        self.path = self.dir / "results.jsonl"
-        self.grid_path = self.dir / "grid.json"
-
-    def open(self, grid: AblationGrid, *, fresh: bool = False) -> dict[str, dict]:
-        """Prepare the directory for ``grid`` and return the records already done."""
-        from simroad.experiments.export import ensure_writable_dir
-
-        ensure_writable_dir("out", self.dir)
-        meta = {"fingerprint": grid.fingerprint(), "grid": asdict(grid)}
-        if self.grid_path.exists() and not fresh:
-            old = json.loads(self.grid_path.read_text())
-            if old.get("fingerprint") != meta["fingerprint"]:
-                raise SimroadError(
-                    f"out: {str(self.dir)!r} holds results of a different grid ({old.get('grid')}). "
-                    f"Choose another --out, or pass --fresh to delete them and start anew."
-                )
-        if fresh and self.path.exists():
-            self.path.unlink()
-        _atomic_write(self.grid_path, json.dumps(meta, indent=1))
-        return self.repair()
-
-    def repair(self) -> dict[str, dict]:
-        """Drop torn or duplicate lines (rewriting the file atomically if needed)."""
-        done: dict[str, dict] = {}
-        dirty = False
-        if self.path.exists():
-            for line in self.path.read_text().splitlines():
-                try:
-                    rec = json.loads(line)
-                    key = cell_key(rec)
-                except (ValueError, KeyError, TypeError):
-                    dirty = True
-                    continue
-                if key in done:
-                    dirty = True
-                    continue
-                done[key] = rec
-            if dirty or (not self.path.read_bytes().endswith(b"\n") and done):
-                _atomic_write(self.path, "".join(json.dumps(r) + "\n" for r in done.values()))
-        return done
-
-    def append(self, record: dict) -> None:
-        """Append one record durably with a single write."""
-        line = (json.dumps(record) + "\n").encode()
-        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-        try:
-            os.write(fd, line)
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-    def records(self) -> list[dict]:
-        """The valid records, one per cell (repairing the file first if needed)."""
-        return list(self.repair().values())
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with open(tmp, "w") as fh:
-        fh.write(text)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-
-
 def _one_thread() -> None:
     """Pool initializer: a sweep parallelises across episodes, so each episode
     process uses one OpenCV thread (no oversubscription of the cores)."""
@@ -161,15 +92,8 @@ def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterato
         finally:
             cv2.setNumThreads(before)
         return
-    with ProcessPoolExecutor(max_workers=workers, initializer=_one_thread) as pool:
-        pending = {pool.submit(cell_fn, s) for s in specs[: 2 * workers]}
-        queue = list(specs[2 * workers :])
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                yield fut.result()
-                if queue:
-                    pending.add(pool.submit(cell_fn, queue.pop(0)))
+    with Interrupts() as interrupts:
+        yield from run_in_workers(specs, workers, cell_fn, initializer=_one_thread, interrupts=interrupts)
 
 
 def _ray_cell(cell_fn: Callable, spec: EpisodeSpec) -> dict:
@@ -200,6 +124,15 @@ def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: C
             ray.shutdown()
 
 
+def _test_cell_fn(default: Callable) -> Callable:
+    target = os.environ.get(TEST_CELL_FN_ENV)
+    if not target:
+        return default
+    module, _, name = target.partition(":")
+    fn: Callable = getattr(importlib.import_module(module), name)
+    return fn
+
+
 def run_ablation(
     grid: AblationGrid,
     out: str | os.PathLike,
@@ -214,24 +147,38 @@ def run_ablation(
     """Run every cell of ``grid`` not yet in ``out/results.jsonl``; return all records.
 
     ``cell_fn`` runs one cell (default :func:`run_cell`); it must be a picklable
-    top-level function.
+    top-level function. The output directory is locked for the whole run
+    (:class:`~simroad.experiments.outlock.OutputLock`): a second sweep on it raises
+    :class:`DirectoryLocked` (a :class:`SimroadError`) naming the holder's PID.
     """
+    from simroad.experiments.export import ensure_writable_dir
+
     check_choice("backend", backend, BACKENDS)
     workers = check_int_in_range("workers", workers if workers is not None else (os.cpu_count() or 1), 1, 4096)
     specs = grid.specs()
     if not specs:
         raise SimroadError("grid: it has no cells; give at least one scenario, noise, filter set and seed.")
-    store = ResultStore(out)
-    done = store.open(grid, fresh=fresh)
-    todo = [s for s in specs if cell_key(s) not in done]
-    from tqdm import tqdm
+    if cell_fn is run_cell:
+        cell_fn = _test_cell_fn(cell_fn)
+    ensure_writable_dir("out", out)
+    with OutputLock(out):  # before grid.json is read or written
+        store = ResultStore(out)
+        done = store.open(grid, fresh=fresh)
+        todo = [s for s in specs if cell_key(s) not in done]
+        from tqdm import tqdm
 
-    bar = tqdm(total=len(specs), initial=len(specs) - len(todo), disable=not progress, unit="episode", desc="ablate")
-    runner = _local(todo, workers, cell_fn) if backend == "local" else _ray(todo, workers, ray_address, cell_fn)
-    for record in runner:
-        store.append(record)
-        bar.update(1)
-        if record.get("error"):
-            bar.write(f"episode {cell_key(record)} failed: {record['error'].splitlines()[0]}")
-    bar.close()
-    return store.records()
+        bar = tqdm(
+            total=len(specs), initial=len(specs) - len(todo), disable=not progress, unit="episode", desc="ablate"
+        )
+        runner = _local(todo, workers, cell_fn) if backend == "local" else _ray(todo, workers, ray_address, cell_fn)
+        try:
+            for record in runner:
+                store.append(record)
+                bar.update(1)
+                if record.get("error"):
+                    bar.write(f"episode {cell_key(record)} failed: {record['error'].splitlines()[0]}")
+        finally:
+            if isinstance(runner, Generator):  # end the workers if the loop stopped early
+                runner.close()
+            bar.close()
+        return store.records()

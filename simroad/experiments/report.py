@@ -1,4 +1,4 @@
-"""Build a sweep's report from ``results.jsonl`` alone (``simroad report DIR``).
+"""Build a sweep's report from ``results.jsonl`` alone, never changing it (``simroad report DIR``).
 
 ``summary.csv`` / ``summary.json``
     One row per scenario x noise x severity x filters x driver: the number of
@@ -8,7 +8,7 @@
     rows as a list of objects (NaN where no episode had a finite value).
 ``summary.md``
     The same table for people, under an at-a-glance table per noise and severity
-    (:func:`headline`).
+    (:func:`headline`), and a list of the lines of ``results.jsonl`` not used (if any).
 ``error_rates.png``
     The paper's Fig. 7a done properly: pooled-per-episode FNR and FPR per noise, one
     bar per filter set, with 95 % confidence intervals.
@@ -23,12 +23,15 @@ import csv
 import json
 import math
 import os
+import sys
 from collections import defaultdict
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.experiments.results import RESULTS_NAME, BadLine, read_results
 
 __all__ = ["METRICS", "build_report", "headline", "summarise"]
 
@@ -231,13 +234,28 @@ def _safety_figure(records: list[dict], path: Path) -> None:
     plt.close(fig)
 
 
-def build_report(directory: str | os.PathLike) -> dict[str, Path]:
+def _write_bad_lines(bad: list[BadLine], path: Path) -> None:
+    """Append the lines that were not used to summary.md."""
+    lines = [f"- {b}" for b in bad]
+    text = f"\n## Lines of {RESULTS_NAME} not used ({len(bad)})\n\n" + "\n".join(lines) + "\n"
+    with open(path, "a") as fh:
+        fh.write(text)
+
+
+def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | None = None) -> dict[str, Path]:
     """Rebuild the report files of the sweep in ``directory`` from its results.jsonl.
+
+    ``results.jsonl`` is only read, never changed. Every line that is not a valid row
+    (:func:`~simroad.experiments.results.check_row`: not JSON, torn, a wrong type, a
+    missing key, a second row of one cell) stays out of the summary and is named —
+    line number and why — through ``log`` and in ``summary.md``.
 
     Parameters
     ----------
     directory : path
         A sweep's output directory (holding ``results.jsonl``).
+    log : callable, optional
+        Receives one message per line not used (default: print to stderr).
 
     Returns
     -------
@@ -246,20 +264,23 @@ def build_report(directory: str | os.PathLike) -> dict[str, Path]:
         ``summary.md``, ``error_rates.png`` and ``safety.png`` (see the module
         docstring for their contents).
     """
-    from simroad.experiments.ablate import ResultStore
-
     d = Path(directory)
-    store = ResultStore(d)
-    if not store.path.exists():
-        raise SimroadError(f"dir: no results.jsonl in {str(d)!r}; run 'simroad ablate --out {d}' first.")
-    records = store.records()
+    path = d / RESULTS_NAME
+    if not path.exists():
+        raise SimroadError(f"dir: no {RESULTS_NAME} in {str(d)!r}; run 'simroad ablate --out {d}' first.")
+    records, bad = read_results(path)
+    say = log or (lambda message: print(message, file=sys.stderr))
+    for b in bad:
+        say(f"{path}: {b}; not used")
     if not records:
-        raise SimroadError(f"dir: {str(store.path)!r} holds no finished episode yet.")
+        raise SimroadError(f"dir: {str(path)!r} holds no finished episode yet ({len(bad)} line(s) not usable).")
     rows = summarise(records)
     out = {name: d / name for name in ("summary.csv", "summary.json", "summary.md", "error_rates.png", "safety.png")}
     _write_csv(rows, out["summary.csv"])
     out["summary.json"].write_text(json.dumps(rows, indent=1, default=str))
     _write_md_with_headline(records, rows, out["summary.md"])
+    if bad:
+        _write_bad_lines(bad, out["summary.md"])
     _error_rates_figure(records, out["error_rates.png"])
     _safety_figure(records, out["safety.png"])
     return out

@@ -4,13 +4,15 @@ the runner's error branch (:func:`run_cell`) runs, and as slow as :data:`DELAY_S
 
 from __future__ import annotations
 
+import os
 import time
 
 from simroad.experiments.ablate import run_cell
 from simroad.experiments.episode import RECORD_KEYS, format_filters
 
-#: Seconds each stub episode sleeps (set before the sweep; forked workers inherit it).
-DELAY_S = 0.005
+#: Seconds each stub episode sleeps (set before the sweep; forked workers inherit it;
+#: a CLI subprocess takes it from the environment variable ``SIMROAD_STUB_DELAY_S``).
+DELAY_S = float(os.environ.get("SIMROAD_STUB_DELAY_S", "0.005"))
 #: The cell whose episode raises: the oracle of seed 13.
 FAILING_SEED, FAILING_DRIVER = 13, "oracle"
 

@@ -16,6 +16,7 @@ import pytest
 
 from simroad import SimroadError
 from simroad.experiments.ablate import ResultStore, run_ablation
+from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.grid import AblationGrid, cell_key, load_grid_file
 
 HERE = Path(__file__).parent
@@ -127,14 +128,15 @@ def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
 
 
 def test_store_repair_keeps_valid_rows_only(tmp_path):
-    store = ResultStore(tmp_path)
-    store.append(
-        {"scenario": "racetrack", "noise": "clear", "severity": 0.0, "filters": "none", "driver": "oracle", "seed": 1}
-    )
+    store = ResultStore(tmp_path, log=lambda m: None)
+    store.append(stub_cell(EpisodeSpec(scenario="racetrack", noise="clear", driver="oracle", seed=1, steps=5)))
     with open(store.path, "a") as fh:
         fh.write('{"scenario": "racetr')
     done = store.repair()
     assert len(done) == 1 and store.path.read_text().count("\n") == 1
+    # the torn line is moved aside, not deleted
+    (moved,) = _rows(tmp_path / "results.rejected.jsonl")
+    assert moved["line"] == 2 and moved["text"] == '{"scenario": "racetr' and moved["reason"].startswith("torn")
 
 
 def test_config_file_unknown_key_names_key_and_file(tmp_path):

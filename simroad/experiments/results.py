@@ -1,0 +1,283 @@
+"""Read and append a sweep's ``results.jsonl``: what a valid row is, and nothing lost.
+
+A **valid row** is one JSON object per line holding every key of
+:data:`~simroad.experiments.episode.RECORD_KEYS` with the types of :data:`ROW_TYPES`
+(``error``, written by the sweep runner, is optional: null or a string). Everything
+else — a line that is not JSON, a torn line, a wrong type (``severity="high"``,
+``scenario=5``), a missing key, a second row for a cell already recorded (the grid's
+:func:`~simroad.experiments.grid.cell_key`) — is a **bad line**, named by its line
+number and why. :func:`read_results` never changes the file; only the sweep runner
+(:meth:`ResultStore.open`) repairs it, and only what a crash or an older version can
+leave: a torn last line and duplicate rows are *moved* to ``results.rejected.jsonl``
+(one JSON object per moved line: ``line``, ``reason``, ``text``, ``moved_at``), never
+deleted. Any other bad line stops the runner with a message naming it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from simroad._validation import SimroadError
+from simroad.experiments.episode import RECORD_KEYS
+from simroad.experiments.grid import AblationGrid, cell_key
+
+__all__ = ["REJECTED_NAME", "RESULTS_NAME", "ROW_TYPES", "BadLine", "ResultStore", "check_row", "read_results"]
+
+RESULTS_NAME = "results.jsonl"
+REJECTED_NAME = "results.rejected.jsonl"
+
+#: Expected type of each key of a row, by kind: ``text`` a string; ``count`` an int
+#: >= 0 (not a bool); ``severity`` a number in [0, 1]; ``number`` an int or float
+#: (NaN for a failed episode); ``flag`` a bool or a number (NaN for a failed episode);
+#: ``number|null`` a number or null; ``text|null`` a string or null (optional key).
+ROW_TYPES: dict[str, str] = {
+    **dict.fromkeys(RECORD_KEYS, "number"),
+    **dict.fromkeys(("scenario", "noise", "filters", "driver"), "text"),
+    **dict.fromkeys(("seed", "steps"), "count"),
+    "severity": "severity",
+    "collided": "flag",
+    "min_ttc_s": "number|null",
+    "error": "text|null",
+}
+_OPTIONAL = ("error",)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+_CHECKS: dict[str, Callable[[Any], bool]] = {
+    "text": lambda v: isinstance(v, str) and v != "",
+    "count": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+    "severity": lambda v: _is_number(v) and 0.0 <= v <= 1.0,
+    "number": _is_number,
+    "flag": lambda v: isinstance(v, bool) or _is_number(v),
+    "number|null": lambda v: v is None or _is_number(v),
+    "text|null": lambda v: v is None or isinstance(v, str),
+}
+_EXPECTED = {
+    "text": "a non-empty string",
+    "count": "an integer >= 0",
+    "severity": "a number in [0, 1]",
+    "number": "a number",
+    "flag": "true, false or a number",
+    "number|null": "a number or null",
+    "text|null": "a string or null",
+}
+
+
+def check_row(row: Any) -> str | None:
+    """Why ``row`` (one parsed JSON line) is not a valid results row, or None if it is.
+
+    Parameters
+    ----------
+    row : object
+        What ``json.loads`` gave for one line.
+
+    Returns
+    -------
+    str or None
+        A short reason naming the first wrong key (``severity is 'high' (str),
+        expected a number in [0, 1]``) or every missing key; None for a valid row.
+    """
+    if not isinstance(row, Mapping):
+        return f"not a JSON object but {type(row).__name__}"
+    missing = [k for k in ROW_TYPES if k not in row and k not in _OPTIONAL]
+    if missing:
+        shown = ", ".join(missing[:6]) + (f" and {len(missing) - 6} more" if len(missing) > 6 else "")
+        return f"missing key{'s' if len(missing) > 1 else ''} {shown}"
+    for key, kind in ROW_TYPES.items():
+        if key in row and not _CHECKS[kind](row[key]):
+            value = row[key]
+            return f"{key} is {value!r} ({type(value).__name__}), expected {_EXPECTED[kind]}"
+    return None
+
+
+@dataclass(frozen=True)
+class BadLine:
+    """One line of ``results.jsonl`` that is not used: its 1-based number, why, its text."""
+
+    number: int
+    reason: str
+    text: str
+    torn: bool = False
+    duplicate: bool = False
+
+    def __str__(self) -> str:
+        return f"line {self.number}: {self.reason}"
+
+
+def _parse_line(number: int, raw: bytes, *, torn: bool) -> dict | BadLine:
+    text = raw.decode("utf-8", errors="surrogateescape")
+    why = "torn (the last line ends without a newline: a write cut short)" if torn else None
+    try:
+        row = json.loads(raw)
+    except (ValueError, UnicodeDecodeError) as exc:
+        reason = why or ("an empty line" if not raw.strip() else f"not JSON ({exc})")
+        return BadLine(number, reason, text, torn=torn)
+    problem = check_row(row)
+    if problem is not None:
+        return BadLine(number, f"{why}; {problem}" if why else problem, text, torn=torn)
+    return row
+
+
+def read_results(path: str | os.PathLike) -> tuple[list[dict], list[BadLine]]:
+    """Read a results file without changing it: the valid rows, one per cell, and the bad lines.
+
+    Parameters
+    ----------
+    path : path
+        A ``results.jsonl``.
+
+    Returns
+    -------
+    rows : list of dict
+        The valid rows in file order; of several rows for one cell, the first.
+    bad : list of BadLine
+        Every other line, with its number and why (``torn`` set for a torn last line,
+        ``duplicate`` for a later row of a cell already recorded).
+    """
+    data = Path(path).read_bytes()
+    lines = data.split(b"\n")
+    complete = lines[-1] == b""
+    if complete:
+        lines.pop()
+    rows: dict[str, dict] = {}
+    first_line: dict[str, int] = {}
+    bad: list[BadLine] = []
+    for i, raw in enumerate(lines, start=1):
+        parsed = _parse_line(i, raw, torn=i == len(lines) and not complete)
+        if isinstance(parsed, BadLine):
+            bad.append(parsed)
+            continue
+        key = cell_key(parsed)
+        if key in rows:
+            text = raw.decode("utf-8", errors="surrogateescape")
+            bad.append(BadLine(i, f"duplicate of line {first_line[key]} (cell {key})", text, duplicate=True))
+            continue
+        rows[key], first_line[key] = parsed, i
+    return list(rows.values()), bad
+
+
+def _stderr(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+class ResultStore:
+    """Append-only JSON-lines results; the sweep runner's side (repairs, appends).
+
+    Parameters
+    ----------
+    directory : path
+        Holds ``results.jsonl``, ``grid.json`` and ``results.rejected.jsonl``.
+    log : callable, optional
+        Receives one message per repair (default: print to stderr).
+    """
+
+    def __init__(self, directory: str | os.PathLike, *, log: Callable[[str], None] | None = None) -> None:
+        self.dir = Path(directory)
+        self.path = self.dir / RESULTS_NAME
+        self.grid_path = self.dir / "grid.json"
+        self.rejected_path = self.dir / REJECTED_NAME
+        self.log = log or _stderr
+
+    def open(self, grid: AblationGrid, *, fresh: bool = False) -> dict[str, dict]:
+        """Prepare the directory for ``grid`` and return the records already done.
+
+        The caller holds the directory's lock (:mod:`simroad.experiments.outlock`).
+        """
+        meta = {"fingerprint": grid.fingerprint(), "grid": asdict(grid)}
+        if self.grid_path.exists() and not fresh:
+            try:
+                old = json.loads(self.grid_path.read_text())
+                old_print, old_grid = old.get("fingerprint"), old.get("grid")
+            except (ValueError, UnicodeDecodeError, AttributeError):
+                raise SimroadError(
+                    f"out: {str(self.grid_path)!r} is damaged (not the JSON object simroad writes). "
+                    "Choose another --out, or pass --fresh to delete the results there and start anew."
+                ) from None
+            if old_print != meta["fingerprint"]:
+                raise SimroadError(
+                    f"out: {str(self.dir)!r} holds results of a different grid ({old_grid}). "
+                    f"Choose another --out, or pass --fresh to delete them and start anew."
+                )
+        if fresh and self.path.exists():
+            self.path.unlink()
+        _atomic_write(self.grid_path, json.dumps(meta, indent=1))
+        return self.repair()
+
+    def repair(self) -> dict[str, dict]:
+        """Move a torn last line and duplicate rows to ``results.rejected.jsonl``; return
+        the valid records by cell. Any other bad line raises :class:`SimroadError`."""
+        if not self.path.exists():
+            return {}
+        rows, bad = read_results(self.path)
+        others = [b for b in bad if not (b.torn or b.duplicate)]
+        if others:
+            listed = "; ".join(str(b) for b in others[:10]) + (
+                f"; and {len(others) - 10} more" if len(others) > 10 else ""
+            )
+            raise SimroadError(
+                f"out: {str(self.path)!r} has lines that are not valid results rows ({listed}). "
+                f"Move them out of the file (e.g. into {REJECTED_NAME}) and rerun to run their cells again, "
+                "or pass --fresh to start anew; 'simroad report' lists them too."
+            )
+        if bad:
+            self._move_aside(bad)
+        elif not self.path.read_bytes().endswith(b"\n") and self.path.stat().st_size:
+            with open(self.path, "ab") as fh:  # a complete row whose newline was cut: finish it
+                fh.write(b"\n")
+                fh.flush()
+                os.fsync(fh.fileno())
+        return {cell_key(r): r for r in rows}
+
+    def _move_aside(self, bad: list[BadLine]) -> None:
+        stamp = time.strftime("%Y-%m-%dT%H:%M:%S%z")
+        moved = "".join(
+            json.dumps({"line": b.number, "reason": b.reason, "text": b.text, "moved_at": stamp}) + "\n" for b in bad
+        )
+        with open(self.rejected_path, "a") as fh:
+            fh.write(moved)
+            fh.flush()
+            os.fsync(fh.fileno())
+        data = self.path.read_bytes()
+        if len(bad) == 1 and bad[0].torn:  # only the torn tail: cut it off in place
+            os.truncate(self.path, data.rfind(b"\n") + 1)
+        else:  # keep every other line byte for byte
+            drop = {b.number for b in bad}
+            lines = data.split(b"\n")
+            lines = lines[:-1] if lines[-1] == b"" else lines
+            keep = [line for i, line in enumerate(lines, start=1) if i not in drop]
+            _atomic_write(self.path, b"".join(line + b"\n" for line in keep))
+        for b in bad:
+            self.log(f"{self.path}: moved {b} to {self.rejected_path.name}")
+
+    def append(self, record: dict) -> None:
+        """Append one record durably with a single write."""
+        line = (json.dumps(record) + "\n").encode()
+        fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            os.write(fd, line)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+    def records(self) -> list[dict]:
+        """The valid records, one per cell, read without changing the file (bad lines skipped)."""
+        return read_results(self.path)[0] if self.path.exists() else []
+
+
+def _atomic_write(path: Path, data: str | bytes) -> None:
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data.encode() if isinstance(data, str) else data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
