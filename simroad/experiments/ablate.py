@@ -59,6 +59,8 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
         and a short traceback, with the cell's identity keys kept and every metric
         NaN.
     """
+    if not isinstance(spec, EpisodeSpec):
+        raise SimroadError(f"spec: expected an EpisodeSpec, got {type(spec).__name__} {spec!r}.")
     try:
         record = episode_fn(spec)
         record["error"] = None
@@ -153,6 +155,11 @@ def run_ablation(
     """
     from simroad.experiments.export import ensure_writable_dir
 
+    if not isinstance(grid, AblationGrid):
+        raise SimroadError(
+            f"grid: expected an AblationGrid, got {type(grid).__name__} {grid!r}. "
+            "Build one with AblationGrid(scenarios=..., noises=...) or load_grid_file(path)."
+        )
     check_choice("backend", backend, BACKENDS)
     workers = check_int_in_range("workers", workers if workers is not None else (os.cpu_count() or 1), 1, 4096)
     specs = grid.specs()

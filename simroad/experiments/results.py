@@ -182,6 +182,10 @@ class ResultStore:
     """
 
     def __init__(self, directory: str | os.PathLike, *, log: Callable[[str], None] | None = None) -> None:
+        if not isinstance(directory, (str, os.PathLike)) or not str(directory):
+            raise SimroadError(
+                f"directory: expected a folder path (str or os.PathLike), got {type(directory).__name__} {directory!r}."
+            )
         self.dir = Path(directory)
         self.path = self.dir / RESULTS_NAME
         self.grid_path = self.dir / "grid.json"

@@ -319,14 +319,13 @@ FUNCTION_CASES: list[tuple[str, str, object, str]] = [
 ]
 # fmt: on
 
-#: Public names whose checks belong to another engineer of issue 13 (xfail until merged).
-SWEEPS_XFAIL = pytest.mark.xfail(strict=False, reason="sweeps engineer (ablate.py): check the grid/spec/out types")
-XFAIL_CASES: list[tuple[str, str, object, str]] = [
+#: The sweep runner's and the filter names' public entry points.
+SWEEPS_CASES: list[tuple[str, str, object, str]] = [
     ("run_ablation", "grid type", lambda e, p: experiments.run_ablation(5, p["ok"]), "grid"),
     ("run_cell", "spec type", lambda e, p: experiments.run_cell(5), "spec"),
     ("ResultStore", "directory type", lambda e, p: experiments.ResultStore(5), "directory"),
 ]
-XFAIL_MODELS_CASES: list[tuple[str, str, object, str]] = [
+FILTER_NAME_CASES: list[tuple[str, str, object, str]] = [
     ("parse_filters", "wrong type", lambda e, p: experiments.parse_filters(5), "filters"),
 ]
 
@@ -370,8 +369,8 @@ def files(paths, write):
 @pytest.mark.parametrize(
     ("name", "call", "param"),
     [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in FUNCTION_CASES]
-    + [pytest.param(n, c, a, id=f"{n}: {why}", marks=SWEEPS_XFAIL) for n, why, c, a in XFAIL_CASES]
-    + [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in XFAIL_MODELS_CASES],
+    + [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in SWEEPS_CASES]
+    + [pytest.param(n, c, a, id=f"{n}: {why}") for n, why, c, a in FILTER_NAME_CASES],
 )
 def test_every_public_function_refuses_bad_input(name, call, param, env, files):
     _refused(lambda: call(env, files), param)
@@ -380,7 +379,7 @@ def test_every_public_function_refuses_bad_input(name, call, param, env, files):
 @pytest.mark.parametrize("module", ["simroad.envs", "simroad.noise", "simroad.control", "simroad.metrics", "simroad.experiments"])  # fmt: skip
 def test_every_public_name_has_cases_or_an_exemption(module):
     mod = importlib.import_module(module)
-    covered = {n for n, *_ in FUNCTION_CASES + XFAIL_CASES + XFAIL_MODELS_CASES}
+    covered = {n for n, *_ in FUNCTION_CASES + SWEEPS_CASES + FILTER_NAME_CASES}
     missing = [n for n in mod.__all__ if n not in covered and n not in EXEMPT]
     assert not missing, f"{module}: public names without surface cases (add to FUNCTION_CASES or EXEMPT): {missing}"
 
