@@ -15,6 +15,8 @@ written are kept and the same command resumes the rest.
 ``"auto"`` (the cluster ``ray start`` runs on this machine) or ``HOST:PORT`` (the
 head node's GCS, as ``ray start --head`` prints it). An address that does not answer
 is refused within seconds, before any episode (Ray itself would wait for minutes).
+A Ray the caller already initialised is used as it is (``ray_address`` is then not
+consulted) and left running; only a Ray this module started is shut down.
 """
 
 from __future__ import annotations

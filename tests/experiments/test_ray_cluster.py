@@ -21,6 +21,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from functools import partial
 from pathlib import Path
 
 import pytest
@@ -30,10 +31,13 @@ from simroad.cli.main import main
 from simroad.experiments.ablate import run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
 
+sys.path.insert(0, str(Path(__file__).parent))
+from stub_cell import FAILING_DRIVER, FAILING_SEED, stub_cell
+
 needs_ray = pytest.mark.skipif(importlib.util.find_spec("ray") is None, reason="Ray not installed")
 
 ROOT = Path(__file__).resolve().parents[2]
-RAY = Path(sys.executable).with_name("ray")
+RAY = Path(sys.executable).with_name("ray") if Path(sys.executable).with_name("ray").exists() else shutil.which("ray")
 #: 8 cells (oracle and detector, racetrack and winding, clear and rain), about 1 s each.
 GRID = AblationGrid(
     scenarios=("racetrack", "winding"),
@@ -144,6 +148,7 @@ def local_records(tmp_path_factory):
 
 @pytest.mark.slow
 @needs_ray
+@pytest.mark.skipif(RAY is None, reason="the ray command line is not installed")
 def test_node_killed_mid_sweep_every_cell_once_and_metrics_equal_local(local_records, tmp_path):
     temp = Path(tempfile.mkdtemp(prefix="srray-", dir="/tmp"))  # short: Ray's socket paths must fit 107 bytes
     env = {**os.environ, "PYTHONPATH": str(ROOT), "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(32),
@@ -228,6 +233,72 @@ def test_malformed_address_is_refused_by_the_cli(address, tmp_path, capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert "--ray-address" in err and "HOST:PORT" in err and "Traceback" not in err
+
+
+def _raising_cell(counter: Path, spec):
+    """A cell function that raises past :func:`run_cell` for the detector cells (counting every call)."""
+    with counter.open("a") as fh:
+        fh.write(cell_key(spec) + "\n")
+    if spec.driver == "detector":
+        raise RuntimeError("escaped the cell")
+    return stub_cell(spec)
+
+
+@pytest.fixture
+def callers_ray():
+    """A Ray the caller started: the sweep must use it and leave it running."""
+    import ray
+    from ray import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers need not import this file
+    cloudpickle.register_pickle_by_value(sys.modules["stub_cell"])
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+
+
+@pytest.mark.slow
+@needs_ray
+def test_an_episode_error_is_a_row_and_a_lost_cell_is_never_retried(callers_ray, tmp_path):
+    grid = AblationGrid(scenarios=("racetrack",), noises=("clear",), filters=("none",), seeds=2, seed_start=12)
+    records = run_ablation(grid, tmp_path / "rows", backend="ray", cell_fn=stub_cell, progress=False)
+    assert sorted(cell_key(r) for r in records) == sorted(cell_key(s) for s in grid.specs())
+    failed = [r for r in records if r["error"]]
+    assert [(r["seed"], r["driver"]) for r in failed] == [(FAILING_SEED, FAILING_DRIVER)]
+    assert failed[0]["error"].startswith("RuntimeError: boom")
+    assert callers_ray.is_initialized()  # not ours to shut down
+
+    counter = tmp_path / "calls.txt"
+    with pytest.raises(
+        SimroadError, match=r"2 cell\(s\) did not run: racetrack\|clear\|0\|none\|detector\|1[23].*resume"
+    ):
+        run_ablation(grid, tmp_path / "lost", backend="ray", cell_fn=partial(_raising_cell, counter), progress=False)
+    calls = counter.read_text().splitlines()
+    assert sorted(calls) == sorted(cell_key(s) for s in grid.specs())  # once each: an exception is not retried
+    rows = [json.loads(line) for line in (tmp_path / "lost" / "results.jsonl").read_text().splitlines()]
+    assert sorted(r["driver"] for r in rows) == ["oracle", "oracle"]  # the cells that ran are kept
+    assert callers_ray.is_initialized()
+
+
+@pytest.mark.slow
+@needs_ray
+def test_a_cluster_without_cpu_ends_the_sweep_instead_of_hanging(monkeypatch, tmp_path):
+    import ray
+
+    from simroad.experiments import _ray_backend
+
+    monkeypatch.setattr(_ray_backend, "NO_CPU_TIMEOUT_S", 2.0)
+    grid = AblationGrid(scenarios=("racetrack",), noises=("clear",), filters=("none",), seeds=1, oracle=False)
+    ray.init(address="local", num_cpus=0, include_dashboard=False, log_to_driver=False)
+    try:
+        start = time.monotonic()
+        with pytest.raises(SimroadError, match=r"no node with a CPU for 2 s.*resume"):
+            run_ablation(grid, tmp_path, backend="ray", cell_fn=stub_cell, progress=False)
+        assert time.monotonic() - start < 30
+    finally:
+        ray.shutdown()
 
 
 def test_a_node_with_another_simroad_version_refuses_the_cell():
