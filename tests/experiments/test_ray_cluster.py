@@ -197,6 +197,11 @@ def test_node_killed_mid_sweep_every_cell_once_and_metrics_equal_local(local_rec
         assert set(keys) == {cell_key(s) for s in GRID.specs()}
         assert not any(r["error"] for r in records)
         assert _metrics(records) == _metrics(local_records)
+        # The cell in flight on the killed node was rerun by Ray (the driver's core-worker log says so).
+        driver_log = "".join(
+            p.read_text(errors="replace") for p in temp.glob("session_*/logs/python-core-driver-*.log")
+        )
+        assert ("NODE_DIED" in driver_log or "WORKER_DIED" in driver_log) and "resubmit task" in driver_log.lower()
     finally:
         if driver is not None and driver.poll() is None:
             driver.kill()
