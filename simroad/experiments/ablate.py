@@ -13,9 +13,12 @@ while one runs (:mod:`simroad.experiments.outlock`). Ctrl-C ends the sweep and i
 workers (:mod:`simroad.experiments.pool`); a second Ctrl-C kills them at once.
 
 Backends: ``local`` (worker processes, the default) and ``ray`` (``pip install
-simroad[ray]``; ``ray_address`` to join a cluster). Both call the same
-:func:`run_cell`, and every episode depends only on its spec and seed, so the
-numbers are the same whatever the backend or the number of workers.
+simroad[ray]``; ``ray_address="HOST:PORT"`` joins a running cluster, where every
+node needs simroad at the driver's version). Both call the same :func:`run_cell`,
+and every episode depends only on its spec and seed, so the numbers are the same
+whatever the backend or the number of workers. On Ray a cell whose node dies is
+rerun elsewhere (:mod:`simroad.experiments._ray_backend`); rows are still written by
+this process only.
 """
 
 from __future__ import annotations
@@ -98,32 +101,11 @@ def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterato
         yield from run_in_workers(specs, workers, cell_fn, initializer=_one_thread, interrupts=interrupts)
 
 
-def _ray_cell(cell_fn: Callable, spec: EpisodeSpec) -> dict:
-    _one_thread()
-    return cell_fn(spec)
-
-
 def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: Callable) -> Iterator[dict]:
-    try:
-        import ray
-    except ImportError:
-        raise SimroadError(
-            "backend: Ray is not installed; install the extra with pip install 'simroad[ray]'."
-        ) from None
-    started = False
-    if not ray.is_initialized():
-        ray.init(address=address, num_cpus=None if address else workers, include_dashboard=False, log_to_driver=False)
-        started = True
-    try:
-        remote = ray.remote(num_cpus=1)(_ray_cell)
-        pending = [remote.remote(cell_fn, s) for s in specs]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            for ref in done:
-                yield ray.get(ref)
-    finally:
-        if started:
-            ray.shutdown()
+    """The Ray backend (:mod:`simroad.experiments._ray_backend`): one task per cell, retried on node death."""
+    from simroad.experiments._ray_backend import run_on_ray
+
+    return run_on_ray(specs, workers=workers, address=address, cell_fn=cell_fn)
 
 
 def _test_cell_fn(default: Callable) -> Callable:
