@@ -20,6 +20,7 @@ from simroad.cli import types as T
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.experiments._ray_backend import check_ray_address
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import EpisodeSpec
@@ -212,7 +213,14 @@ def _add_ablate(sub: Any) -> None:
     p.add_argument(
         "--backend", type=T.choice(BACKENDS), help=f"{_names(BACKENDS)} (default: {_default(run_ablation, 'backend')})"
     )
-    p.add_argument("--ray-address", dest="ray_address", type=T.text(), help="Ray cluster address (with --backend ray)")
+    p.add_argument(
+        "--ray-address",
+        dest="ray_address",
+        type=T.checked(
+            check_ray_address, "ray_address", bad=[("empty", ""), ("no port", "localhost"), ("port", "host:0")]
+        ),
+        help="Ray cluster address, HOST:PORT or auto (with --backend ray)",
+    )
     p.add_argument("--out", type=T.output_dir(), help="output directory")
     p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
