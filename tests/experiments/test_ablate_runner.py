@@ -98,6 +98,7 @@ def test_a_directory_with_another_grid_is_refused_unless_fresh(tmp_path):
     assert len(records) == 4 and len(_rows(tmp_path / "results.jsonl")) == 4
 
 
+@pytest.mark.slow
 def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
     out = tmp_path / "killed"
     script = textwrap.dedent(f"""

@@ -102,6 +102,7 @@ def test_read_results_names_each_bad_line_and_keeps_only_valid_rows(tmp_path):
     assert [b.number for b in bad if b.torn] == [11] and [b.number for b in bad if b.duplicate] == [9]
 
 
+@pytest.mark.slow
 def test_simroad_report_leaves_results_byte_identical_and_names_every_bad_line(tmp_path):
     expected = _damaged_file(tmp_path / "results.jsonl")
     before = (tmp_path / "results.jsonl").read_bytes()

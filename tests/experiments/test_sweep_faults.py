@@ -85,6 +85,7 @@ def test_the_lock_is_taken_before_grid_json_is_read_and_released_after_a_failure
     assert not (tmp_path / LOCK_NAME).exists()
 
 
+@pytest.mark.slow
 def test_cli_ablate_on_a_locked_directory_exits_2_naming_the_holder(tmp_path):
     env = dict(
         os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(HERE)]), **{TEST_CELL_FN_ENV: "stub_cell:stub_cell"}
@@ -135,6 +136,7 @@ def _race(out: Path, grids: tuple[AblationGrid, AblationGrid]) -> list[tuple[int
     return outcomes
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("same_grid", [True, False], ids=["same-grid", "different-grids"])
 def test_two_concurrent_sweeps_on_one_directory_never_duplicate_lose_or_mix_rows(tmp_path, same_grid):
     grids = (GRID_A, GRID_A) if same_grid else (GRID_A, GRID_B)
@@ -189,11 +191,12 @@ def _running(pid: int) -> bool:
 # group as a terminal sends it or to the parent only); each trial takes ~5 s (20 cells of 0.3 s
 # on 2 workers, interrupted after 2 rows).
 _TRIALS = [pytest.param(0.2, True, id="twice-0.2s-group")] + [
-    pytest.param(d, g, id=f"{f'twice-{d}s' if d else 'once'}-{'group' if g else 'parent'}", marks=pytest.mark.slow)
+    pytest.param(d, g, id=f"{f'twice-{d}s' if d else 'once'}-{'group' if g else 'parent'}")
     for d, g in ((0.05, False), (0.1, True), (0.15, False), (0.3, True), (0.4, False), (0.5, True), (None, False))
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs /proc to find the worker processes")
 @pytest.mark.parametrize("second, group", _TRIALS)
 def test_ctrl_c_twice_ends_the_whole_process_tree_within_3_s_and_rows_stay_valid(tmp_path, second, group):

@@ -13,6 +13,8 @@ import pytest
 
 import simroad
 
+pytestmark = pytest.mark.slow  # each case starts a fresh interpreter
+
 _ENV = {**os.environ, "PYTHONPATH": str(Path(simroad.__file__).resolve().parents[1])}
 
 
