@@ -2,6 +2,7 @@
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.render import CameraRenderer, Frame, VehicleBox, render_bev
+from simroad.camera.sensor import Sensor, SensorParams
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE, WorldRaster
 
 __all__ = [
@@ -15,6 +16,8 @@ __all__ = [
     "CameraRenderer",
     "Frame",
     "PinholeCamera",
+    "Sensor",
+    "SensorParams",
     "VehicleBox",
     "WorldRaster",
     "render_bev",

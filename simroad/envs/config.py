@@ -11,6 +11,7 @@ from typing import Any
 from simroad._validation import SimroadError, check_bool, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
+from simroad.camera.sensor import SensorParams
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
 from simroad.noise import MODELS, parse_noise
 
@@ -53,6 +54,10 @@ class RoadCamConfig:
     max_offroad_m : float
         The episode terminates when the ego's centre is farther than this from the
         road surface, in metres.
+    camera_effects : bool or SensorParams
+        The camera sensor after the weather (auto-exposure, response curve, shot and
+        read noise, vignetting, motion blur, JPEG; docs/camera.md). False (default)
+        is the perfect pinhole; True uses the default :class:`SensorParams`.
     """
 
     scenario: str = "racetrack"
@@ -65,6 +70,7 @@ class RoadCamConfig:
     duration_s: float = 60.0
     roadside: str | None = None
     max_offroad_m: float = 3.0
+    camera_effects: bool | SensorParams = False
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -84,6 +90,16 @@ class RoadCamConfig:
         check_bool("longitudinal", self.longitudinal)
         check_bool("traffic", self.traffic)
         _check_noise_params(self.noise_params, self.noise)
+        if not isinstance(self.camera_effects, SensorParams):
+            check_bool("camera_effects", self.camera_effects)
+            object.__setattr__(self, "camera_effects", bool(self.camera_effects))
+
+    @property
+    def sensor_params(self) -> SensorParams | None:
+        """The camera sensor's parameters, or None when ``camera_effects`` is off."""
+        if isinstance(self.camera_effects, SensorParams):
+            return self.camera_effects
+        return SensorParams() if self.camera_effects else None
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> RoadCamConfig:

@@ -11,7 +11,7 @@ import numpy as np
 from gymnasium import spaces
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
-from simroad.camera import CameraRenderer, PinholeCamera, VehicleBox, WorldRaster, render_bev
+from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
@@ -111,6 +111,7 @@ class RoadCamEnv(gym.Env):
         self.world: WorldRaster | None = None
         self.renderer: CameraRenderer | None = None
         self.weather: Weather | None = None
+        self.sensor: Sensor | None = None
         self._vehicle_rgb: dict[int, tuple[int, int, int]] = {}
         self._colour_rng: np.random.Generator | None = None
         self._prev_heading = 0.0
@@ -156,6 +157,12 @@ class RoadCamEnv(gym.Env):
                 self.config.noise, severity=self.config.severity, params=self.config.noise_params
             )
             self.weather.reset(weather_rng, world=self.world)
+        self.sensor = None
+        if self.config.sensor_params is not None:
+            # The last draw of reset, made only when the sensor is on: with
+            # camera_effects=False every other stream is unchanged.
+            self.sensor = Sensor(self.config.sensor_params, self.camera)
+            self.sensor.reset(np.random.default_rng(int(rng.integers(2**63 - 1))))
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0
         return self._observe(crashed=False)
@@ -268,6 +275,8 @@ class RoadCamEnv(gym.Env):
                 time_s=self._time,
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
+        if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)
+            rgb = self.sensor.apply(rgb, speed_m_s=float(self.vehicle.speed), depth=frame.depth)
         lat, herr, width, off = self._lane_state()
         on_road = off == 0.0
         centring = 1.0 / (1.0 + lat * lat)

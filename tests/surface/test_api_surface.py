@@ -23,13 +23,14 @@ import simroad  # noqa: F401  (registers the environment)
 from simroad import control, envs, experiments, filters, metrics, noise
 from simroad._validation import SimroadError
 from simroad.camera.geometry import CameraConfig
+from simroad.camera.sensor import SensorParams
 from simroad.control import ControllerConfig
 from simroad.envs import RoadCamConfig
 from simroad.experiments import AblationGrid, EpisodeSpec
 from simroad.noise import MODELS
 
 PARAMS = [m.params_type for m in MODELS.values()]
-CONFIGS = [RoadCamConfig, CameraConfig, EpisodeSpec, AblationGrid, ControllerConfig, *PARAMS]
+CONFIGS = [RoadCamConfig, CameraConfig, SensorParams, EpisodeSpec, AblationGrid, ControllerConfig, *PARAMS]
 
 
 def _refused(fn, name: str) -> None:
@@ -46,6 +47,8 @@ _BY_TYPE: dict[str, list[tuple[str, object]]] = {
     "int": [("wrong type", "3x"), ("below range", -(10**12)), ("above range", 10**12)],
     "float": [("wrong type", "x"), ("below range", -1e12), ("above range", 1e12), ("not finite", float("nan"))],
     "float | None": [("wrong type", "x"), ("above range", 1e12)],
+    "int | None": [("wrong type", "x"), ("above range", 10**12)],
+    "bool | SensorParams": [("string boolean", "on"), ("integer 2", 2)],
     "bool": [("string boolean", "no"), ("integer 2", 2)],
     "str": [("wrong type", 5), ("unknown name", "bogus")],
     "str | None": [("wrong type", 5), ("unknown name", "bogus")],
