@@ -18,6 +18,7 @@ the random generator of one episode. ``SensorParams.none()`` is the identity.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -158,10 +159,18 @@ def vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: flo
     ndarray, float32, (H, W)
         Relative illumination in (0, 1], 1 on the optical axis.
     """
+    return _vignetting_gain(int(height), int(width), float(focal_px), float(cx), float(cy))
+
+
+@functools.lru_cache(maxsize=8)
+def _vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: float) -> np.ndarray:
+    # One map per camera: computed once, shared read-only by every frame.
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
     r2 = (u - cx) ** 2 + (v - cy) ** 2
     f2 = focal_px * focal_px
-    return ((f2 / (f2 + r2)) ** 2).astype(np.float32)
+    gain = ((f2 / (f2 + r2)) ** 2).astype(np.float32)
+    gain.flags.writeable = False
+    return gain
 
 
 def motion_blur_lengths(
