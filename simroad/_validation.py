@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +115,17 @@ def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:
     return value
 
 
+def _check_ndarray(name: str, value: Any, dtype: str | Sequence[str], hint: str) -> None:
+    """The type and dtype checks shared by :func:`check_image` and :func:`check_array`."""
+    if not isinstance(value, np.ndarray):
+        raise SimroadError(
+            f"{name}: expected a numpy array, got {type(value).__name__}. Convert it with numpy.asarray(...)."
+        )
+    dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
+    if value.dtype.name not in dtypes:
+        raise SimroadError(f"{name}: expected dtype {' or '.join(dtypes)}, got {value.dtype}. {hint}")
+
+
 def check_image(
     name: str,
     image: Any,
@@ -140,19 +151,12 @@ def check_image(
     min_size : int
         Minimum height and width in pixels.
     """
-    if not isinstance(image, np.ndarray):
-        raise SimroadError(
-            f"{name}: expected a numpy array, got {type(image).__name__}. Convert it with numpy.asarray(...)."
-        )
-    dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
-    if image.dtype.name not in dtypes:
-        raise SimroadError(
-            f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}. "
-            + (
-                "Convert with image.astype(np.uint8) (values 0-255) "
-                "or image.astype(np.float32) / 255 (values in [0, 1])."
-            )
-        )
+    _check_ndarray(
+        name,
+        image,
+        dtype,
+        "Convert with image.astype(np.uint8) (values 0-255) or image.astype(np.float32) / 255 (values in [0, 1]).",
+    )
     if channels == 0:
         shape_ok = image.ndim == 2
         expected = "(H, W)"
@@ -212,15 +216,8 @@ def check_array(
     ndim : int or tuple of int
         Accepted numbers of dimensions.
     """
-    if not isinstance(array, np.ndarray):
-        raise SimroadError(
-            f"{name}: expected a numpy array, got {type(array).__name__}. Convert it with numpy.asarray(...)."
-        )
     dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
-    if array.dtype.name not in dtypes:
-        raise SimroadError(
-            f"{name}: expected dtype {' or '.join(dtypes)}, got {array.dtype}. Convert with .astype(np.{dtypes[0]})."
-        )
+    _check_ndarray(name, array, dtypes, f"Convert with .astype(np.{dtypes[0]}).")
     dims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
     if array.ndim not in dims:
         raise SimroadError(
