@@ -8,8 +8,10 @@ array assembled from tiles.
 
 Materials
 ---------
-Every texel carries a material code; the road mask is ``material >= ASPHALT`` on the
-ground (markings count as road).
+Every texel and pixel carries a material code (:data:`MATERIAL_NAMES`). Ground codes
+are the ones a ground texel can have (:data:`GROUND_MATERIALS`); the road is
+:data:`ROAD_MATERIALS` (asphalt and its markings). Scenery and vehicles have codes of
+their own, so the camera's ``material`` map tells every visible thing apart.
 """
 
 from __future__ import annotations
@@ -22,15 +24,30 @@ import cv2
 import numpy as np
 
 from simroad.camera.lanes import lane_signed_distance, supports_vectorised
+from simroad.camera.mesh import Mesh
 from simroad.camera.palette import Palette, draw_palette, make_texture
 
 __all__ = [
     "ASPHALT",
+    "BUILDING",
+    "GROUND_MATERIALS",
+    "GUARDRAIL",
+    "IS_GROUND",
+    "IS_ROAD",
+    "KERB",
     "MARKING",
+    "MATERIAL_NAMES",
+    "OVERPASS",
+    "POLE",
     "ROADSIDE",
+    "ROAD_MATERIALS",
     "SHOULDER",
+    "SIDEWALK",
+    "SIGN",
     "SKY",
+    "VEGETATION",
     "VEHICLE",
+    "WALL",
     "LaneShape",
     "Window",
     "WorldRaster",
@@ -38,6 +55,43 @@ __all__ = [
 ]
 
 ROADSIDE, SHOULDER, ASPHALT, MARKING, VEHICLE, SKY = 0, 1, 2, 3, 4, 5
+SIDEWALK, KERB = 6, 7  # ground beside a town street (not road)
+VEGETATION, POLE, SIGN, BUILDING, WALL, GUARDRAIL, OVERPASS = 8, 9, 10, 11, 12, 13, 14
+
+#: Name of every material code (docs/materials.md describes each).
+MATERIAL_NAMES: dict[int, str] = {
+    ROADSIDE: "roadside",
+    SHOULDER: "shoulder",
+    ASPHALT: "asphalt",
+    MARKING: "marking",
+    VEHICLE: "vehicle",
+    SKY: "sky",
+    SIDEWALK: "sidewalk",
+    KERB: "kerb",
+    VEGETATION: "vegetation",
+    POLE: "pole",
+    SIGN: "sign",
+    BUILDING: "building",
+    WALL: "wall",
+    GUARDRAIL: "guardrail",
+    OVERPASS: "overpass",
+}
+#: Codes a ground texel can carry.
+GROUND_MATERIALS = frozenset({ROADSIDE, SHOULDER, ASPHALT, MARKING, SIDEWALK, KERB})
+#: The drivable surface: asphalt and the markings painted on it.
+ROAD_MATERIALS = frozenset({ASPHALT, MARKING})
+
+
+def _lookup(codes: frozenset[int]) -> np.ndarray:
+    out = np.zeros(256, dtype=bool)
+    out[list(codes)] = True
+    out.flags.writeable = False
+    return out
+
+
+#: ``IS_GROUND[material]`` / ``IS_ROAD[material]``: vectorised membership tests.
+IS_GROUND = _lookup(GROUND_MATERIALS)
+IS_ROAD = _lookup(ROAD_MATERIALS)
 
 MARKING_WIDTH_M = 0.15
 DASH_LENGTH_M = 3.0
@@ -206,6 +260,15 @@ class WorldRaster:
         }
         self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._windows: dict[str, Window] = {}
+        #: What stands on the ground (trees, poles, buildings, ...): any object with
+        #: ``meshes(xmin, ymin, xmax, ymax) -> Mesh``; ``None`` for a bare world.
+        self.scenery = None
+
+    def objects(self, xmin: float, ymin: float, xmax: float, ymax: float) -> Mesh:
+        """The scenery faces that may lie in the world box (metres)."""
+        if self.scenery is None:
+            return Mesh.empty()
+        return self.scenery.meshes(xmin, ymin, xmax, ymax)
 
     # ----------------------------------------------------------------- tiles
     @property

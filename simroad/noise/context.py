@@ -19,7 +19,7 @@ import numpy as np
 from simroad._validation import SimroadError, check_finite_number, check_in_range
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.render import VehicleBox
-from simroad.camera.world import MARKING, SKY
+from simroad.camera.world import IS_GROUND, SKY
 
 __all__ = ["FrameState", "NoiseContext", "flat_ground_camera", "resolve_frame"]
 
@@ -205,5 +205,5 @@ def resolve_frame(
     if material is None:
         ground = np.isfinite(depth)
     else:
-        ground = (material <= MARKING) & np.isfinite(depth)
+        ground = IS_GROUND[material] & np.isfinite(depth)
     return cam, depth, material, ground

@@ -6,7 +6,8 @@ import numpy as np
 from highway_env.road.lane import LineType, PolyLaneFixedWidth, SineLane, StraightLane
 from highway_env.road.road import RoadNetwork
 
-from simroad.camera import ASPHALT, MARKING, ROADSIDE, SHOULDER, WorldRaster
+from simroad.camera import MARKING, ROADSIDE, SHOULDER, WorldRaster
+from simroad.camera.world import IS_ROAD
 
 
 def _straight_world(rng, line_types=(LineType.CONTINUOUS, LineType.STRIPED)):
@@ -30,7 +31,7 @@ def test_lane_surface_texels_match_the_lane_width(rng):
     w = _straight_world(rng, line_types=(LineType.NONE, LineType.NONE))
     win = w.window(20.0, -10.0, 40.0, 10.0)
     col = int((30.0 - win.x0) / win.texel_m)
-    road = (win.material[:, col] >= ASPHALT).sum()
+    road = IS_ROAD[win.material[:, col]].sum()
     assert road == 40  # 4.0 m / 0.1 m texels
     assert (win.material[:, col] == SHOULDER).sum() > 0
     assert (win.material[:, col] == ROADSIDE).sum() > 0
@@ -80,7 +81,7 @@ def _sdf_agrees_with_lane(lane, rng, tol_m):
     cols = ((pts[:, 0] - win.x0) / 0.1).astype(int)
     rows = ((pts[:, 1] - win.y0) / 0.1).astype(int)
     centres = np.column_stack([win.x0 + (cols + 0.5) * 0.1, win.y0 + (rows + 0.5) * 0.1])
-    road = win.material[rows, cols] >= ASPHALT
+    road = IS_ROAD[win.material[rows, cols]]
     disagree = 0
     for p, r in zip(centres, road):
         s, lat = lane.local_coordinates(p)
