@@ -22,7 +22,7 @@ from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
 from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
 from simroad.experiments.export import export_frames
-from simroad.experiments.figures import camera_figure
+from simroad.experiments.figures import camera_figure, places_figure
 from simroad.experiments.filter_effect import filter_effect_table, format_filter_effect
 from simroad.experiments.gate import check_requirements, parse_requirement
 from simroad.experiments.grid import AblationGrid, load_grid_file
@@ -227,6 +227,8 @@ def cmd_figure(args: argparse.Namespace) -> int:
         )
     if args.what == "camera":
         path = camera_figure(args.out, seed=args.seed)
+    elif args.what == "places":
+        path = places_figure(args.out, seed=args.seed)
     else:
         from simroad.noise.gallery import render_gallery
 

@@ -356,9 +356,9 @@ def _add_pictures(sub: Any) -> None:
     p = sub.add_parser(
         "figure",
         help="draw a documentation figure",
-        description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV) or 'weather' (the noise gallery).",
+        description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery) or 'places' (the same places clean and in low sun).",
     )
-    p.add_argument("what", choices=("camera", "weather"), help="which figure")
+    p.add_argument("what", choices=("camera", "weather", "places"), help="which figure")
     p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
     seed = _default(camera_figure, "seed")
     p.add_argument(

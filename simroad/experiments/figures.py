@@ -10,7 +10,7 @@ from simroad.envs import SCENARIO_NAMES, RoadCamEnv
 from simroad.experiments.export import ensure_writable_dir
 from simroad.experiments.rollout import drive_autopilot
 
-__all__ = ["camera_figure", "check_figure_path", "figure_suffixes"]
+__all__ = ["camera_figure", "check_figure_path", "figure_suffixes", "places_figure"]
 
 
 def figure_suffixes() -> tuple[str, ...]:
@@ -53,6 +53,42 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
             ax.set_title(title, fontsize=9)
             ax.axis("off")
         env.close()
+    fig.tight_layout()
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+    return out
+
+
+def places_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 25) -> Path:
+    """The same places in every scenario, clean and in low sun (shadow 0.9), 640x360.
+
+    One row per scenario: the world of ``seed + row`` after ``steps`` autopilot
+    steps, once in clear weather and once under ``noise="shadow"`` at severity 0.9.
+    The README shows this figure for simroad 0.1 and for the current world, so that
+    a change of the world is seen at the same places. Writes a PNG.
+    """
+    out = check_figure_path("out", out)
+    seed = check_int_in_range("seed", seed, 0, 2**31 - 1 - len(SCENARIO_NAMES))
+    steps = check_int_in_range("steps", steps, 0, 100_000)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ensure_writable_dir("out", out.parent if str(out.parent) else ".")
+    n = len(SCENARIO_NAMES)
+    fig, axes = plt.subplots(n, 2, figsize=(12.8, 3.7 * n), squeeze=False)
+    for row, scenario in enumerate(SCENARIO_NAMES):
+        for col, (noise, severity) in enumerate((("clear", 0.0), ("shadow", 0.9))):
+            env = RoadCamEnv(scenario=scenario, width=640, height=360, noise=noise, severity=severity)
+            obs, _ = env.reset(seed=seed + row)
+            if steps > 0:
+                obs, _ = drive_autopilot(env, steps)
+            ax = axes[row][col]
+            ax.imshow(obs)
+            ax.set_title(f"{scenario}, seed {seed + row}: {noise if noise == 'clear' else 'shadow 0.9'}", fontsize=10)
+            ax.axis("off")
+            env.close()
     fig.tight_layout()
     fig.savefig(out, dpi=80)
     plt.close(fig)
