@@ -129,7 +129,7 @@ class MeshPainter:
         plan = self._plan(mesh)
         if plan is None:
             return fid
-        items, plane_n, plane_k, dmin, dmax = plan
+        items, plane_n, plane_k, dmax = plan
         for f, pts in items:
             cv2.fillConvexPoly(fid, pts, f, lineType=cv2.LINE_8, shift=_SHIFT)
         flat = fid.ravel()
@@ -145,7 +145,8 @@ class MeshPainter:
         den = n[:, 0] * self._xn[idx] + n[:, 1] * self._yn[idx] + n[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             d = self._hd[idx] * plane_k[ff] / den
-        d = np.clip(np.nan_to_num(d, nan=0.0, posinf=0.0, neginf=0.0), dmin[ff], dmax[ff])
+        # The farthest point of a face is a corner; grazing rays must not exceed it.
+        d = np.clip(np.nan_to_num(d, nan=0.0, posinf=0.0, neginf=0.0), 0.0, dmax[ff])
         depth.reshape(-1)[idx] = d
         return fid
 
@@ -203,14 +204,11 @@ class MeshPainter:
         nc = self._dir_to_camera(mesh.normal[faces])
         plane_n[faces] = nc
         plane_k[faces] = np.einsum("fc,fc->f", nc, P[sel, 0])
-        dmin = np.zeros(F)
         dmax = np.zeros(F)
-        hxy = np.hypot(V[faces, :, 0] - cx, V[faces, :, 1] - cy)
-        dmin[faces] = np.maximum(hxy.min(axis=1), 0.0)
-        dmax[faces] = hxy.max(axis=1)
+        dmax[faces] = np.hypot(V[faces, :, 0] - cx, V[faces, :, 1] - cy).max(axis=1)
         rank = _solid_order(mesh, faces, lo[sel], hi[sel], C)
         order = faces[np.lexsort((faces, rank))]
-        return [(f, polys[f]) for f in order.tolist()], plane_n, plane_k, dmin, dmax
+        return [(f, polys[f]) for f in order.tolist()], plane_n, plane_k, dmax
 
 
 def _solid_order(mesh: Mesh, faces: np.ndarray, lo: np.ndarray, hi: np.ndarray, C: np.ndarray) -> np.ndarray:

@@ -27,10 +27,12 @@ from simroad.camera.world import SKY, WorldRaster
 __all__ = ["AO_STRENGTH", "CameraRenderer", "Frame", "VehicleBox", "render_bev"]
 
 VEHICLE_HEIGHT_M = 1.5
-#: Ambient occlusion under a vehicle: fraction of the sky light the ground well under
-#: the car loses (half of it at the footprint's edge) ...
+#: Ambient occlusion under a vehicle: fraction of the sky light the ground under the
+#: car loses ...
 AO_STRENGTH = 0.55
-#: ... fading to none this far outside the footprint (m).
+#: ... from this far inside the footprint (m), fading to none ...
+_AO_INNER_M = 0.25
+#: ... this far outside it (m).
 _AO_REACH_M = 0.45
 #: Scenery is requested this far (m) beyond the visible ground's footprint.
 _OBJECT_MARGIN_M = 8.0
@@ -277,8 +279,8 @@ class CameraRenderer:
         """Darken the ground under and around each vehicle (ambient occlusion).
 
         The occlusion is a smooth function of the signed ground distance ``sd`` (m) to
-        the vehicle's footprint: ``AO_STRENGTH`` well under the car, half of it at the
-        footprint's edge, none ``AO_REACH_M`` outside. Material and road mask are
+        the vehicle's footprint: ``AO_STRENGTH`` from 0.25 m under the car, 0.7 of it at
+        the footprint's edge, none 0.45 m outside. Material and road mask are
         untouched (the road is still road in a shadow).
         """
         cam = self.camera
@@ -309,7 +311,7 @@ class CameraRenderer:
         qx = np.abs(cr * dx + sr * dy) - vp[k, 3]
         qy = np.abs(-sr * dx + cr * dy) - vp[k, 4]
         sd = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
-        a = np.clip((_AO_REACH_M - sd) / (2 * _AO_REACH_M), 0.0, 1.0)
+        a = np.clip((_AO_REACH_M - sd) / (_AO_REACH_M + _AO_INNER_M), 0.0, 1.0)
         occ = AO_STRENGTH * a * a * (3 - 2 * a)
         gain = ((1.0 - occ) ** (1 / 2.2)).astype(np.float32)  # in the sRGB-encoded frame
         px = rgb.reshape(-1, 3)
