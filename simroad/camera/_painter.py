@@ -235,7 +235,12 @@ def _solid_order(mesh: Mesh, faces: np.ndarray, lo: np.ndarray, hi: np.ndarray, 
     slo = np.minimum.reduceat(lo[order], starts)
     shi = np.maximum.reduceat(hi[order], starts)
     ia, ib = np.triu_indices(S, 1)
-    ov = (slo[ia, 0] <= shi[ib, 0]) & (slo[ib, 0] <= shi[ia, 0]) & (slo[ia, 1] <= shi[ib, 1]) & (slo[ib, 1] <= shi[ia, 1])
+    ov = (
+        (slo[ia, 0] <= shi[ib, 0])
+        & (slo[ib, 0] <= shi[ia, 0])
+        & (slo[ia, 1] <= shi[ib, 1])
+        & (slo[ib, 1] <= shi[ia, 1])
+    )
     ia, ib = ia[ov], ib[ov]
     # Distance of every solid's centre (the tie-break).
     allf = np.flatnonzero(np.isin(mesh.solid, sids))

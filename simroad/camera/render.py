@@ -287,7 +287,9 @@ class CameraRenderer:
         c = cam.config
         label = np.full((c.height, c.width), -1, dtype=np.int32)
         cpos = cam.position_world
-        order = sorted(range(len(vehicles)), key=lambda i: -math.hypot(vehicles[i].x - cpos[0], vehicles[i].y - cpos[1]))
+        order = sorted(
+            range(len(vehicles)), key=lambda i: -math.hypot(vehicles[i].x - cpos[0], vehicles[i].y - cpos[1])
+        )
         for i in order:
             v = vehicles[i]
             grown = VehicleBox(v.x, v.y, v.heading, v.length + 2 * _AO_REACH_M, v.width + 2 * _AO_REACH_M, v.rgb)

@@ -166,7 +166,9 @@ def _wheel(b: _Builder, xc: float, r: float, side: float, y_in: float, y_body: f
 
 
 @lru_cache(maxsize=16)
-def _template(length: float, width: float, height: float) -> tuple[np.ndarray, ...]:
+def _template(
+    length: float, width: float, height: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
     """Vehicle faces in the vehicle frame (x forward, y right, z up), paint marked."""
     b = _Builder()
     L, W, H = length, width, height

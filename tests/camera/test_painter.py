@@ -119,7 +119,7 @@ def test_back_faces_are_not_drawn():
 def test_a_box_through_the_near_plane_is_clipped_not_lost():
     cam = _camera()
     side = _box(0.0, 2.5, 20.0, 1.0, 0.0, 3.0, material=WALL)  # from 10 m behind to 10 m ahead, on the right
-    fid, _, material, depth = _paint(cam, side)
+    fid, _, _, depth = _paint(cam, side)
     covered = fid >= 0
     c = cam.config
     assert covered[:, -1].sum() > c.height // 3  # fills the right edge of the image
