@@ -233,7 +233,7 @@ class CameraRenderer:
                 np.copyto(rgb[r0:r1], self._sky_rgb[r0:r1], where=mixed[..., None])
                 material[r0:r1][mixed] = SKY
                 road[r0:r1][mixed] = False
-        depth = cam.depth
+        depth = cam.depth.copy()  # each frame its own (callers keep them)
         ground_vehicles = self._in_view(vehicles)
         if ground_vehicles:
             self._contact_shadows(rgb, ground_vehicles)
@@ -242,7 +242,6 @@ class CameraRenderer:
         faces = Mesh.concat([self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)])
         face_id = _NO_FACES
         if len(faces):
-            depth = depth.copy()
             face_id = self._painter.paint(faces, rgb, material, depth, colours=self._face_colours(faces))
             road &= face_id < 0
         return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces)
