@@ -3,8 +3,10 @@
 One ``cv2.warpPerspective`` of the world window per frame for the colour and one
 nearest-neighbour warp for the material (hence the road mask); the sky and the
 per-pixel ground distance depend only on the mounting and are computed once.
-Other vehicles are boxes with height, clipped at the near plane and painted far to
-near.
+Things with height (the world's scenery and the other vehicles, one
+:class:`~simroad.camera.mesh.Mesh`) are painted over the ground with exact occlusion
+by :mod:`simroad.camera._painter`; every vehicle first darkens the ground around its
+footprint (a soft contact shadow).
 """
 
 from __future__ import annotations
@@ -16,18 +18,34 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from simroad.camera._painter import MeshPainter, clip_near, face_colours
 from simroad.camera.geometry import PinholeCamera
-from simroad.camera.world import SKY, VEHICLE, WorldRaster
+from simroad.camera.mesh import Mesh
+from simroad.camera.vehicles import vehicles_mesh
+from simroad.camera.world import SKY, WorldRaster
 
-__all__ = ["CameraRenderer", "Frame", "VehicleBox", "render_bev"]
+__all__ = ["AO_STRENGTH", "CameraRenderer", "Frame", "VehicleBox", "render_bev"]
 
 VEHICLE_HEIGHT_M = 1.5
-_NEAR_M = 0.3
+#: Ambient occlusion under a vehicle: fraction of the sky light the ground under the
+#: car loses ...
+AO_STRENGTH = 0.55
+#: ... from this far inside the footprint (m), fading to none ...
+_AO_INNER_M = 0.25
+#: ... this far outside it (m).
+_AO_REACH_M = 0.45
+#: Scenery is requested this far (m) beyond the visible ground's footprint.
+_OBJECT_MARGIN_M = 8.0
 
 
 @dataclass(frozen=True)
 class VehicleBox:
-    """A vehicle to draw: centre ``(x, y)`` in m, heading in rad, size in m, RGB."""
+    """A vehicle to draw: centre ``(x, y)`` in m, heading in rad, size in m, RGB.
+
+    ``rgb`` (sRGB) colours it in the bird's-eye view; ``paint`` is the linear albedo
+    of its body in the camera (decoded from ``rgb`` when ``None``; see
+    :func:`simroad.camera.vehicles.draw_paint`).
+    """
 
     x: float
     y: float
@@ -36,6 +54,7 @@ class VehicleBox:
     width: float
     rgb: tuple[int, int, int]
     height: float = VEHICLE_HEIGHT_M
+    paint: tuple[float, float, float] | None = None
 
     def corners(self) -> np.ndarray:
         """Ground corners (4, 2): front-left, front-right, rear-right, rear-left."""
@@ -53,6 +72,9 @@ class VehicleBox:
         )
 
 
+_NO_FACES = np.zeros((0, 0), dtype=np.int32)
+
+
 @dataclass
 class Frame:
     """One rendered camera frame.
@@ -66,7 +88,13 @@ class Frame:
     road_mask : ndarray, bool, (H, W)
         Visible drivable surface (lanes and their markings).
     depth : ndarray, float32, (H, W)
-        Ground distance in metres; ``inf`` for sky and beyond range.
+        Horizontal distance in metres from the camera to the surface point each pixel
+        sees (ground or face); ``inf`` for sky and beyond range.
+    vehicles : list of VehicleBox
+    face_id : ndarray, int32, (H, W)
+        Index into ``faces`` of the face each pixel sees; -1 for ground and sky.
+    faces : Mesh
+        The faces that were painted (scenery, then vehicles).
     """
 
     rgb: np.ndarray
@@ -74,6 +102,12 @@ class Frame:
     road_mask: np.ndarray
     depth: np.ndarray
     vehicles: list[VehicleBox] = field(default_factory=list)
+    face_id: np.ndarray = field(default_factory=lambda: _NO_FACES)
+    faces: Mesh = field(default_factory=Mesh.empty)
+
+    def __post_init__(self) -> None:
+        if self.face_id is _NO_FACES:
+            self.face_id = np.full(self.material.shape, -1, dtype=np.int32)
 
 
 def _sky_image(camera: PinholeCamera, rng: np.random.Generator) -> np.ndarray:
@@ -130,6 +164,10 @@ class CameraRenderer:
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
         self._footprint = np.vstack([hull, [[c.forward_offset_m, 0.0]]]).astype(float)
+        self._painter = MeshPainter(camera)
+        self._ground_flat = camera.ground_valid.ravel()
+        eg = np.nan_to_num(camera._ego_ground, nan=0.0)
+        self._gx, self._gy = eg[..., 0].ravel(), eg[..., 1].ravel()
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -195,41 +233,90 @@ class CameraRenderer:
                 np.copyto(rgb[r0:r1], self._sky_rgb[r0:r1], where=mixed[..., None])
                 material[r0:r1][mixed] = SKY
                 road[r0:r1][mixed] = False
-        depth = cam.depth
-        if vehicles:
-            depth = depth.copy()
-            self._paint_vehicles(rgb, material, depth, vehicles)
-            road &= material != VEHICLE
-        return Frame(rgb, material, road, depth, list(vehicles))
+        depth = cam.depth.copy()  # each frame its own (callers keep them)
+        ground_vehicles = self._in_view(vehicles)
+        if ground_vehicles:
+            self._contact_shadows(rgb, ground_vehicles)
+        m = fp.min(axis=0) - _OBJECT_MARGIN_M
+        M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
+        faces = Mesh.concat([self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)])
+        face_id = _NO_FACES
+        if len(faces):
+            face_id = self._painter.paint(faces, rgb, material, depth, colours=self._face_colours(faces))
+            road &= face_id < 0
+        return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces)
 
-    # -------------------------------------------------------------- vehicles
-    def _paint_vehicles(self, rgb, material, depth, vehicles) -> None:
+    # ------------------------------------------------------- things with height
+    def _in_view(self, vehicles: Sequence[VehicleBox]) -> list[VehicleBox]:
+        """The vehicles that may be seen: within range and not wholly behind the camera."""
+        if not vehicles:
+            return []
+        cx, cy = self.camera.position_world
+        h = self.camera.pose[2]
+        ch, sh = math.cos(h), math.sin(h)
+        r = self.camera.config.max_range_m
+        out = []
+        for v in vehicles:
+            dx, dy = v.x - cx, v.y - cy
+            reach = 0.5 * math.hypot(v.length, v.width) + _AO_REACH_M
+            if dx * ch + dy * sh > -reach and math.hypot(dx, dy) < r + reach:
+                out.append(v)
+        return out
+
+    def _face_colours(self, faces: Mesh) -> np.ndarray:
+        """Flat colour of each face, fading into the horizon haze as the ground does."""
+        col = face_colours(faces).astype(np.float32)
+        cx, cy = self.camera.position_world
+        d = np.hypot(faces.vertices[:, :, 0] - cx, faces.vertices[:, :, 1] - cy).mean(axis=1)
+        c = self.camera.config
+        fade_start = 0.6 * c.max_range_m
+        t = np.clip((d - fade_start) / (c.max_range_m - fade_start), 0.0, 1.0)[:, None]
+        col += (t * t * (3 - 2 * t)) * (self._haze - col)
+        return col.astype(np.uint8)
+
+    def _contact_shadows(self, rgb: np.ndarray, vehicles: Sequence[VehicleBox]) -> None:
+        """Darken the ground under and around each vehicle (ambient occlusion).
+
+        The occlusion is a smooth function of the signed ground distance ``sd`` (m) to
+        the vehicle's footprint: ``AO_STRENGTH`` from 0.25 m under the car, 0.7 of it at
+        the footprint's edge, none 0.45 m outside. Material and road mask are
+        untouched (the road is still road in a shadow).
+        """
         cam = self.camera
+        c = cam.config
+        label = np.full((c.height, c.width), -1, dtype=np.int32)
         cpos = cam.position_world
-        order = sorted(vehicles, key=lambda v: -math.hypot(v.x - cpos[0], v.y - cpos[1]))
-        for v in order:
-            dist = math.hypot(v.x - cpos[0], v.y - cpos[1])
-            if dist > cam.config.max_range_m + v.length:
+        order = sorted(
+            range(len(vehicles)), key=lambda i: -math.hypot(vehicles[i].x - cpos[0], vehicles[i].y - cpos[1])
+        )
+        for i in order:
+            v = vehicles[i]
+            grown = VehicleBox(v.x, v.y, v.heading, v.length + 2 * _AO_REACH_M, v.width + 2 * _AO_REACH_M, v.rgb)
+            pc = clip_near(cam.world_to_camera(np.column_stack([grown.corners(), np.zeros(4)])))
+            if len(pc) < 3:
                 continue
-            base = v.corners()
-            faces = _box_faces(base, v.height)
-            ctr3 = np.array([v.x, v.y, v.height / 2])
-            for poly3, shade in faces:
-                normal_pt = poly3.mean(axis=0)
-                outward = normal_pt - ctr3
-                cam3 = np.array([cpos[0], cpos[1], cam.config.mount_height_m])
-                if np.dot(outward, cam3 - normal_pt) <= 0:
-                    continue  # back face
-                pc = _clip_near(cam.world_to_camera(poly3))
-                if len(pc) < 3:
-                    continue
-                uv = cam.camera_to_image(pc)
-                pts = np.round(uv * 16).astype(np.int32)
-                colour = tuple(int(min(255, ch * shade)) for ch in v.rgb)
-                cv2.fillConvexPoly(rgb, pts, colour, lineType=cv2.LINE_8, shift=4)
-                cv2.fillConvexPoly(material, pts, VEHICLE, lineType=cv2.LINE_8, shift=4)
-                d = float(np.min(np.hypot(poly3[:, 0] - cpos[0], poly3[:, 1] - cpos[1])))
-                cv2.fillConvexPoly(depth, pts, d, lineType=cv2.LINE_8, shift=4)
+            pts = np.round(cam.camera_to_image(pc) * 16).astype(np.int32)
+            cv2.fillConvexPoly(label, pts, i, lineType=cv2.LINE_8, shift=4)
+        flat = label.ravel()
+        idx = np.flatnonzero((flat >= 0) & self._ground_flat)
+        if not len(idx):
+            return
+        k = flat[idx]
+        x, y, h = cam.pose
+        ch, sh = math.cos(h), math.sin(h)
+        vp = np.array([[v.x - x, v.y - y, v.heading - h, v.length / 2, v.width / 2] for v in vehicles])
+        ex = ch * vp[:, 0] + sh * vp[:, 1]  # vehicle centres in the ego frame
+        ey = -sh * vp[:, 0] + ch * vp[:, 1]
+        dx, dy = self._gx[idx] - ex[k], self._gy[idx] - ey[k]
+        cr, sr = np.cos(vp[k, 2]), np.sin(vp[k, 2])
+        qx = np.abs(cr * dx + sr * dy) - vp[k, 3]
+        qy = np.abs(-sr * dx + cr * dy) - vp[k, 4]
+        sd = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
+        a = np.clip((_AO_REACH_M - sd) / (_AO_REACH_M + _AO_INNER_M), 0.0, 1.0)
+        occ = AO_STRENGTH * a * a * (3 - 2 * a)
+        gain = ((1.0 - occ) ** (1 / 2.2)).astype(np.float32)  # in the sRGB-encoded frame
+        px = rgb.reshape(-1, 3)
+        px[idx] = (px[idx] * gain[:, None]).astype(np.uint8)
 
 
 def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:
@@ -258,32 +345,6 @@ def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple
             bands.append((int(levels[v]), v, w))
         v = w
     return bands
-
-
-def _box_faces(base: np.ndarray, height: float) -> list[tuple[np.ndarray, float]]:
-    lo = np.column_stack([base, np.zeros(4)])
-    hi = np.column_stack([base, np.full(4, height)])
-    faces = [(np.array([hi[0], hi[1], hi[2], hi[3]]), 1.0)]
-    shades = (0.85, 0.7, 0.55, 0.7)  # front, right, rear, left
-    for k in range(4):
-        a, b = k, (k + 1) % 4
-        faces.append((np.array([lo[a], lo[b], hi[b], hi[a]]), shades[k]))
-    return faces
-
-
-def _clip_near(poly: np.ndarray, near: float = _NEAR_M) -> np.ndarray:
-    """Sutherland-Hodgman clip of a camera-frame polygon to ``z >= near``."""
-    out = []
-    n = len(poly)
-    for k in range(n):
-        p, q = poly[k], poly[(k + 1) % n]
-        pin, qin = p[2] >= near, q[2] >= near
-        if pin:
-            out.append(p)
-        if pin != qin:
-            t = (near - p[2]) / (q[2] - p[2])
-            out.append(p + t * (q - p))
-    return np.array(out) if out else np.zeros((0, 3))
 
 
 def render_bev(

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
+from simroad.camera.vehicles import draw_paint, paint_rgb
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
 from simroad.noise import NoiseContext, Weather, make_weather
@@ -112,7 +113,7 @@ class RoadCamEnv(gym.Env):
         self.renderer: CameraRenderer | None = None
         self.weather: Weather | None = None
         self.sensor: Sensor | None = None
-        self._vehicle_rgb: dict[int, tuple[int, int, int]] = {}
+        self._vehicle_rgb: dict[int, tuple[tuple[int, int, int], tuple[float, float, float]]] = {}
         self._colour_rng: np.random.Generator | None = None
         self._prev_heading = 0.0
         self._time = 0.0
@@ -217,16 +218,24 @@ class RoadCamEnv(gym.Env):
         return float(v.position[0]), float(v.position[1]), float(v.heading)
 
     def _box(self, v, rgb=None) -> VehicleBox:
+        paint = None
         if rgb is None:
-            rgb = self._vehicle_rgb.get(id(v))
-            if rgb is None:
+            known = self._vehicle_rgb.get(id(v))
+            if known is None:
                 if self._colour_rng is None:
                     raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
-                r, g, b = (int(c) for c in self._colour_rng.integers(20, 236, size=3))
-                rgb = (r, g, b)
-                self._vehicle_rgb[id(v)] = rgb
+                _, albedo = draw_paint(self._colour_rng)  # one colour per vehicle and episode
+                known = (paint_rgb(albedo), (float(albedo[0]), float(albedo[1]), float(albedo[2])))
+                self._vehicle_rgb[id(v)] = known
+            rgb, paint = known
         return VehicleBox(
-            float(v.position[0]), float(v.position[1]), float(v.heading), float(v.LENGTH), float(v.WIDTH), rgb
+            float(v.position[0]),
+            float(v.position[1]),
+            float(v.heading),
+            float(v.LENGTH),
+            float(v.WIDTH),
+            rgb,
+            paint=paint,
         )
 
     def _others(self) -> list[VehicleBox]:

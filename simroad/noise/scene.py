@@ -23,7 +23,7 @@ SCENE_POSE = (80.0, 0.0, 0.0)
 """Ego pose of the sample frame: world x, y in m and heading in rad."""
 SCENE_EGO_SPEED_M_S = 15.0
 """Ego speed the sample scene's contexts assume, m/s."""
-_LEAD = VehicleBox(104.5, -0.5, 0.0, 5.0, 2.0, (200, 30, 30))
+_LEAD = VehicleBox(104.5, -0.5, 0.0, 5.0, 2.0, (200, 30, 30), paint=(0.35, 0.03, 0.03))  # red paint
 
 
 def sample_scene(seed: int = 0) -> tuple[Frame, PinholeCamera, WorldRaster]:

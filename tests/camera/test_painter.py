@@ -1,0 +1,134 @@
+"""The mesh painter: occlusion between convex solids, exact depth, culling, clipping."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from simroad.camera import CameraConfig, PinholeCamera
+from simroad.camera._painter import MeshPainter
+from simroad.camera.mesh import Mesh
+from simroad.camera.vehicles import box_mesh
+from simroad.camera.world import BUILDING, OVERPASS, POLE, WALL
+
+GREY = (0.3, 0.3, 0.3)
+
+
+def _camera(width=320, height=180) -> PinholeCamera:
+    cam = PinholeCamera(CameraConfig(width=width, height=height))
+    cam.set_pose(0.0, 0.0, 0.0)  # camera at world (0.8, 0), looking along +x
+    return cam
+
+
+def _paint(cam: PinholeCamera, mesh: Mesh):
+    c = cam.config
+    rgb = np.zeros((c.height, c.width, 3), dtype=np.uint8)
+    material = np.zeros((c.height, c.width), dtype=np.uint8)
+    depth = cam.depth.copy()
+    fid = MeshPainter(cam).paint(mesh, rgb, material, depth)
+    return fid, rgb, material, depth
+
+
+def _solid_map(mesh: Mesh, fid: np.ndarray) -> np.ndarray:
+    return np.where(fid >= 0, mesh.solid[np.maximum(fid, 0)], -1)
+
+
+def _box(x, y, length, width, z0, z1, material=BUILDING, heading=0.0):
+    return box_mesh(x, y, heading, length, width, z0, z1, albedo=GREY, material=material)
+
+
+@pytest.mark.parametrize("near_first", [False, True])
+def test_near_box_hides_far_box_whatever_the_order(near_first):
+    cam = _camera()
+    near, far = _box(20, 0, 2, 3, 0, 2), _box(40, 1, 4, 8, 0, 6)
+    parts = [near, far] if near_first else [far, near]
+    mesh = Mesh.concat(parts)
+    near_id = 0 if near_first else 1
+    fid, *_ = _paint(cam, mesh)
+    solids = _solid_map(mesh, fid)
+    alone, *_ = _paint(cam, near)
+    covered = alone >= 0
+    assert covered.sum() > 100
+    assert np.all(solids[covered] == near_id)  # wherever the near box is, it wins
+    assert (solids == 1 - near_id).sum() > 100  # and the far one shows around it
+
+
+def test_pole_in_front_of_a_long_wall_is_seen():
+    # The wall's centre is nearer than the pole, yet the pole stands in front of it:
+    # ordering by distance would hide the pole; the separating plane does not.
+    cam = _camera()
+    wall = _box(30.5, 11.0, 60.0, 0.5, 0, 4, material=WALL)
+    pole = _box(45.0, 8.0, 0.4, 0.4, 0, 7, material=POLE)
+    for parts in ([wall, pole], [pole, wall]):
+        mesh = Mesh.concat(parts)
+        _, _, material, _ = _paint(cam, mesh)
+        alone, *_ = _paint(cam, pole)
+        assert (alone >= 0).sum() > 10
+        assert np.all(material[alone >= 0] == POLE)
+
+
+def test_overpass_deck_in_front_of_a_distant_building_and_a_car_under_it():
+    cam = _camera()
+    deck = _box(35, 0, 8, 40, 5.0, 6.2, material=OVERPASS)
+    building = _box(90, 0, 10, 30, 0, 25, material=BUILDING)
+    car = _box(36, 0, 4.5, 1.8, 0, 1.5, material=WALL)  # any other code
+    for parts in ([deck, building, car], [car, building, deck], [building, car, deck]):
+        mesh = Mesh.concat(parts)
+        _, _, material, _ = _paint(cam, mesh)
+        d_alone, *_ = _paint(cam, deck)
+        c_alone, *_ = _paint(cam, car)
+        assert np.all(material[d_alone >= 0] == OVERPASS)
+        assert np.all(material[c_alone >= 0] == WALL)
+        assert (material == BUILDING).sum() > 50
+
+
+def test_depth_of_a_facing_box_face_is_the_analytic_distance():
+    cam = _camera()
+    box = _box(25.0, 0.0, 2.0, 6.0, 0.0, 3.0)  # rear face on the plane x = 24
+    fid, _, _, depth = _paint(cam, box)
+    v, u = np.nonzero(fid >= 0)
+    assert len(u) > 200
+    c = cam.config
+    f = cam.K[0, 0]
+    p = math.radians(c.pitch_deg)
+    xn, yn = (u - cam.K[0, 2]) / f, (v - cam.K[1, 2]) / f
+    # Ray in the ego frame (X forward, Y right, Z down) for a camera pitched down by p.
+    rx = -math.sin(p) * yn + math.cos(p)
+    ry = xn
+    t = (24.0 - c.forward_offset_m) / rx  # reach the plane X = 24 (world x = ego X here)
+    expected = t * np.hypot(rx, ry)
+    np.testing.assert_allclose(depth[v, u], expected, rtol=1e-4)
+
+
+def test_back_faces_are_not_drawn():
+    cam = _camera()
+    box = _box(25.0, 0.0, 2.0, 6.0, 0.0, 3.0)
+    fid, *_ = _paint(cam, box)
+    C = np.array([*cam.position_world, cam.config.mount_height_m])
+    seen = np.unique(fid[fid >= 0])
+    facing = np.einsum("fc,fc->f", box.normal, C - box.vertices[:, 0]) > 0
+    assert set(seen) <= set(np.flatnonzero(facing))
+    # A lone face turned away from the camera is not drawn at all.
+    back = box.select(np.flatnonzero(box.normal[:, 0] > 0.5))  # the far face, normal +x
+    fid2, *_ = _paint(cam, back)
+    assert (fid2 >= 0).sum() == 0
+
+
+def test_a_box_through_the_near_plane_is_clipped_not_lost():
+    cam = _camera()
+    side = _box(0.0, 2.5, 20.0, 1.0, 0.0, 3.0, material=WALL)  # from 10 m behind to 10 m ahead, on the right
+    fid, _, _, depth = _paint(cam, side)
+    covered = fid >= 0
+    c = cam.config
+    assert covered[:, -1].sum() > c.height // 3  # fills the right edge of the image
+    assert not covered[:, : c.width // 3].any()
+    assert np.all(np.isfinite(depth[covered])) and depth[covered].min() >= 0.0
+    assert depth[covered].max() <= 11.0
+
+
+def test_faces_behind_the_camera_are_not_drawn():
+    cam = _camera()
+    fid, *_ = _paint(cam, _box(-20.0, 0.0, 4.0, 4.0, 0.0, 3.0))
+    assert (fid >= 0).sum() == 0
