@@ -37,9 +37,9 @@ def main() -> None:
             sensor = Sensor(params, env.camera)
             sensor.reset(np.random.default_rng(0))
 
-            def run(s=sensor):
+            def run(s=sensor, f=frame, v=speed):
                 s.ev = 0.0  # the same exposure every call
-                s.apply(frame.rgb, speed_m_s=speed, depth=frame.depth)
+                s.apply(f.rgb, speed_m_s=v, depth=f.depth)
 
             candidates[f"{name} {w}x{h}"] = run
         times = interleaved(candidates, repeats=40 if w > 320 else 150)

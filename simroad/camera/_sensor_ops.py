@@ -124,9 +124,9 @@ def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m
         return np.zeros((h, w), np.float32)
     # s = travel / (X - travel), X = depth * cos(bearing); inf depth -> 0.
     x = cv2.divide(np.asarray(depth, np.float32), inv_cos)
-    cv2.subtract(x, float(travel_m), dst=x)
-    cv2.max(x, float(travel_m), dst=x)  # a point closer than one travel: s capped at 1
-    return cv2.divide(float(travel_m), x)  # type: ignore[call-overload]  # scalar / array
+    np.subtract(x, np.float32(travel_m), out=x)
+    np.maximum(x, np.float32(travel_m), out=x)  # a point closer than one travel: s capped at 1
+    return np.divide(np.float32(travel_m), x, out=x)
 
 
 def radial_motion_blur(
@@ -259,7 +259,7 @@ def add_noise_dn(
     k = float(gain_dn_per_e)
     floor = (k * float(read_noise_e)) ** 2
     var = cv2.addWeighted(signal_dn, k if shot else 0.0, signal_dn, 0.0, floor)
-    cv2.max(var, 0.0, dst=var)
+    np.maximum(var, np.float32(0.0), out=var)
     sigma = cv2.sqrt(var)
     cv2.multiply(sigma, normal, dst=sigma, scale=float(sign))
     return cv2.add(signal_dn, sigma, dtype=cv2.CV_16U)

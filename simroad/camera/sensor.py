@@ -253,17 +253,17 @@ def apply_sensor(
         vig = vignetting_gain(h, w, fx, cx, cy, params.vignetting_exponent).reshape(h, w * 3)
         signal = cv2.multiply(flat, vig, dst=flat, scale=gain * full)
     else:
-        signal = cv2.multiply(flat, gain * full, dst=flat)  # type: ignore[call-overload]
-    cv2.min(signal, full, dst=signal)  # the full well
+        signal = np.multiply(flat, np.float32(gain * full), out=flat)
+    np.minimum(signal, np.float32(full), out=signal)  # the full well
     measured = cv2.mean(signal)[0] / full
+    normal: np.ndarray | None = None
+    sign = 1.0
     if params.shot_noise or params.read_noise_e > 0.0:
         if noise is not None:
             window, sign = noise.window(rng)
-            normal: np.ndarray | None = window.reshape(h, w * 3)
+            normal = window.reshape(h, w * 3)
         else:
-            normal, sign = rng.standard_normal(signal.shape, np.float32), 1.0
-    else:
-        normal, sign = None, 1.0
+            normal = rng.standard_normal(signal.shape, dtype=np.float32)
     dn = add_noise_dn(
         signal,
         normal,
@@ -325,7 +325,11 @@ class Sensor:
             measured = float(cv2.mean(srgb_to_linear(rgb).reshape(rgb.shape[0], -1))[0])
             self.ev = auto_exposure_update(0.0, min(measured, 1.0), dataclasses.replace(self.params, ae_rate=1.0))
             self._settled = True
-        noise = self._noise if self._noise is not None and rgb.shape[:2] == (self._noise.height, self._noise.width) else None
+        noise = (
+            self._noise
+            if self._noise is not None and rgb.shape[:2] == (self._noise.height, self._noise.width)
+            else None
+        )
         out, measured = apply_sensor(
             rgb, self.params, self.camera, self._rng, ev=self.ev, speed_m_s=speed_m_s, depth=depth, noise=noise
         )
