@@ -36,9 +36,11 @@ def main() -> None:
         ):
             sensor = Sensor(params, env.camera)
             sensor.reset(np.random.default_rng(0))
+            sensor.apply(frame.rgb, speed_m_s=speed, depth=frame.depth)  # settles the exposure
+            settled = sensor.ev
 
-            def run(s=sensor, f=frame, v=speed):
-                s.ev = 0.0  # the same exposure every call
+            def run(s=sensor, f=frame, v=speed, ev=settled):
+                s.ev = ev  # the settled exposure every call
                 s.apply(f.rgb, speed_m_s=v, depth=f.depth)
 
             candidates[f"{name} {w}x{h}"] = run

@@ -263,7 +263,7 @@ def apply_sensor(
             window, sign = noise.window(rng)
             normal = window.reshape(h, w * 3)
         else:
-            normal = rng.standard_normal(signal.shape, dtype=np.float32)
+            normal = np.asarray(rng.standard_normal((h, w * 3), dtype=np.float32))
     dn = add_noise_dn(
         signal,
         normal,
