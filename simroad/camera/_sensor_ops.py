@@ -1,28 +1,41 @@
-"""Pure per-frame operations of the camera sensor: vignetting, motion blur, noise, tone curve, JPEG.
+"""Pure per-frame operations of the camera sensor: vignetting, motion blur, noise, ADC + response, JPEG.
 
-Each is a function of arrays and physical parameters; :mod:`simroad.camera.sensor`
-composes them in physical order (see its docstring and docs/camera.md).
+Each is a function of arrays and physical parameters (plus read-only caches keyed by
+the image geometry); :mod:`simroad.camera.sensor` composes them in physical order
+(see its docstring and docs/camera.md). Everything per pixel runs in float32 with
+OpenCV, so a 320x180 frame costs a fraction of a millisecond.
 """
 
 from __future__ import annotations
+
+import functools
+import math
 
 import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.noise.radiometry import linear_to_srgb
 
 __all__ = [
+    "NoiseTile",
+    "adc_response_lut",
+    "add_noise_dn",
     "jpeg_roundtrip",
-    "motion_blur_lengths",
+    "motion_blur_scale",
+    "radial_motion_blur",
     "response_curve",
-    "shot_read_noise",
-    "vertical_motion_blur",
     "vignetting_gain",
 ]
 
 
-def vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: float) -> np.ndarray:
-    """cos^4 of each pixel's field angle: ``(f^2 / (f^2 + r^2))^2``.
+def vignetting_gain(
+    height: int, width: int, focal_px: float, cx: float, cy: float, exponent: float = 4.0
+) -> np.ndarray:
+    """cos^n of each pixel's field angle: ``(f^2 / (f^2 + r^2))^(n / 2)``, per channel.
+
+    ``n = 4`` is the natural vignetting of a thin lens (the cos^4 law); real lenses
+    partly compensate it, which a smaller ``n`` models.
 
     Parameters
     ----------
@@ -32,145 +45,227 @@ def vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: flo
         Focal length in pixels.
     cx, cy : float
         Principal point in pixels (column, row).
+    exponent : float
+        ``n``, the power of the cosine.
 
     Returns
     -------
-    ndarray, float32, (H, W)
-        Relative illumination in (0, 1], 1 on the optical axis.
+    ndarray, float32, (H, W, 3)
+        Relative illumination in (0, 1], 1 on the optical axis (read-only, cached).
     """
-    return _vignetting_gain(int(height), int(width), float(focal_px), float(cx), float(cy))
+    return _vignetting_gain(int(height), int(width), float(focal_px), float(cx), float(cy), float(exponent))
 
 
-def _vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: float) -> np.ndarray:
+@functools.lru_cache(maxsize=8)
+def _vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: float, exponent: float) -> np.ndarray:
     # One map per camera: computed once, shared read-only by every frame.
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
     r2 = (u - cx) ** 2 + (v - cy) ** 2
     f2 = focal_px * focal_px
-    gain = ((f2 / (f2 + r2)) ** 2).astype(np.float32)
+    gain = np.repeat(((f2 / (f2 + r2)) ** (exponent / 2.0)).astype(np.float32)[:, :, None], 3, axis=2)
     gain.flags.writeable = False
     return gain
 
 
-def motion_blur_lengths(
-    height: int,
-    *,
-    focal_px: float,
-    mount_height_m: float,
-    horizon_row: float,
-    speed_m_s: float,
-    exposure_s: float,
-    depth: np.ndarray | None = None,
-) -> np.ndarray:
-    """Vertical image motion of each row's ground during the exposure, in pixels.
+# ------------------------------------------------------------------ motion blur
 
-    A ground point at distance ``Z0`` (m) approaches by ``v T`` metres, so its image
-    row moves by ``f h (1/Z1 - 1/Z0)`` with ``Z1 = Z0 - v T``. ``Z0`` is the row's
-    median finite ``depth`` when the depth map is given, else ``f h / (row -
-    horizon)``. Rows at or above the horizon (sky) do not move.
+
+@functools.lru_cache(maxsize=8)
+def _flow_grids(height: int, width: int, cx: float, foe_row: float) -> tuple[np.ndarray, ...]:
+    """u, v, u - cx, v - foe_row and |p - FOE|, each float32 (H, W), read-only."""
+    v, u = np.mgrid[0:height, 0:width].astype(np.float32)
+    du, dv = u - np.float32(cx), v - np.float32(foe_row)
+    grids = (u, v, du, dv, np.hypot(du, dv))
+    for g in grids:
+        g.flags.writeable = False
+    return grids
+
+
+@functools.lru_cache(maxsize=8)
+def _inv_cos_bearing(height: int, width: int, focal_px: float, cx: float) -> np.ndarray:
+    """1 / cos of each column's bearing, ``hypot(f, u - cx) / f``, float32 (H, W), read-only."""
+    du = np.arange(width, dtype=np.float64) - cx
+    row = (np.hypot(focal_px, du) / focal_px).astype(np.float32)
+    out = np.ascontiguousarray(np.broadcast_to(row, (height, width)))
+    out.flags.writeable = False
+    return out
+
+
+def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m: float) -> np.ndarray:
+    """Relative image expansion of each pixel's scene point during the exposure.
+
+    The scene points that cross pixel ``p`` during the exposure (which ends at the
+    rendered pose) lie, at its end, on the segment ``p + t (p - e) s``, ``t`` in
+    [0, 1], ``e`` the focus of expansion (principal column, horizon row): the point a
+    pixel sees at forward distance ``X`` (m) was ``travel_m`` farther at the start,
+    and a pinhole image scales as ``1 / X``, so ``s = travel / (X - travel)``. ``X`` is
+    the depth map's horizontal distance times the cosine of the column's bearing.
 
     Parameters
     ----------
-    height : int
-        Number of image rows.
+    depth : ndarray, float32, (H, W)
+        Horizontal distance in metres of what each pixel sees, ``inf`` for the sky.
     focal_px : float
         Focal length in pixels.
-    mount_height_m : float
-        Camera height above the ground in metres.
-    horizon_row : float
-        Image row of the horizon.
-    speed_m_s : float
-        Ego forward speed in m/s (negative values are treated as their magnitude).
-    exposure_s : float
-        Exposure time in seconds.
-    depth : ndarray, float32, (H, W), optional
-        Ground distance in metres, ``inf`` where there is no ground.
+    cx : float
+        Principal column in pixels.
+    travel_m : float
+        Distance the ego covers during the exposure (speed times exposure time), >= 0.
 
     Returns
     -------
-    ndarray, float64, (H,)
-        Blur length per row in pixels (0 where nothing moves).
+    ndarray, float32, (H, W)
+        ``s`` in [0, 1]; 0 where nothing moves (sky, zero travel). The blur length in
+        pixels is ``s * |p - e|``.
     """
-    fh = focal_px * mount_height_m
-    rows = np.arange(height, dtype=np.float64)
-    if depth is not None:
-        d = np.where(np.isfinite(depth), depth, np.nan).astype(np.float64)
-        valid = np.isfinite(d).any(axis=1)
-        z0 = np.full(height, np.inf)
-        if valid.any():
-            z0[valid] = np.nanmedian(d[valid], axis=1)
-    else:
-        below = rows - horizon_row
-        z0 = np.where(below > 0, fh / np.maximum(below, 1e-12), np.inf)
-    travel = abs(float(speed_m_s)) * float(exposure_s)
-    out = np.zeros(height)
-    if travel == 0.0:
-        return out
-    ok = np.isfinite(z0) & (z0 > 0)
-    z1 = np.maximum(z0[ok] - travel, 1e-3)
-    out[ok] = fh * (1.0 / z1 - 1.0 / z0[ok])
-    return np.minimum(out, float(height))
+    h, w = depth.shape
+    inv_cos = _inv_cos_bearing(h, w, float(focal_px), float(cx))
+    if travel_m <= 0.0:
+        return np.zeros((h, w), np.float32)
+    # s = travel / (X - travel), X = depth * cos(bearing); inf depth -> 0.
+    x = cv2.divide(np.asarray(depth, np.float32), inv_cos)
+    np.subtract(x, np.float32(travel_m), out=x)
+    np.maximum(x, np.float32(travel_m), out=x)  # a point closer than one travel: s capped at 1
+    return np.divide(np.float32(travel_m), x, out=x)
 
 
-def vertical_motion_blur(lin: np.ndarray, lengths: np.ndarray) -> np.ndarray:
-    """Average each row over the ``lengths[row]`` rows above it (a box, sub-pixel exact).
+def radial_motion_blur(
+    lin: np.ndarray, scale: np.ndarray, *, cx: float, foe_row: float, max_step_px: float = 1.0
+) -> np.ndarray:
+    """Box-blur each pixel along its flow line from the focus of expansion, in place.
 
-    Ground moves down the image as the car advances, so a pixel integrates the
-    radiance of the rows above it during the exposure. The window ``[y + 1 - L, y + 1]``
-    of the piecewise-constant image is integrated exactly.
+    Pixel ``p`` integrates the radiance found at ``p + t (p - e) s(p)`` for ``t`` in
+    [0, 1] (the points that crossed it during the exposure, which ends at the rendered
+    pose). The box is sampled with ``2**n`` bilinear taps no more than ``max_step_px``
+    apart, built by ``n`` doublings (each averages the image with itself displaced by
+    a power-of-two fraction of the flow), one ``cv2.remap`` each, over the rows where
+    the blur reaches half a pixel.
 
     Parameters
     ----------
-    lin : ndarray, float32, (H, W, C)
-        Linear radiance (not modified).
-    lengths : ndarray, (H,)
-        Blur length per row in pixels, >= 0.
+    lin : ndarray, float32, (H, W, 3)
+        Linear radiance, C-contiguous; modified in place and returned.
+    scale : ndarray, float32, (H, W)
+        Relative expansion from :func:`motion_blur_scale`.
+    cx, foe_row : float
+        Focus of expansion in pixels.
+    max_step_px : float
+        Largest spacing of the taps in pixels.
 
     Returns
     -------
-    ndarray, float32, (H, W, C)
+    ndarray, float32, (H, W, 3)
+        ``lin``, blurred.
     """
-    if not np.any(lengths > 1e-6):
-        return lin.copy()
-    h = lin.shape[0]
-    csum = np.zeros((h + 1, *lin.shape[1:]), dtype=np.float64)
-    np.cumsum(lin, axis=0, out=csum[1:])
-    end = np.arange(1, h + 1, dtype=np.float64)
-    start = np.maximum(end - np.asarray(lengths, dtype=np.float64), 0.0)
-    i = np.minimum(np.floor(start).astype(np.int64), h - 1)
-    frac = (start - i)[:, None, None]
-    c_start = csum[i] + frac * lin[i]
-    width = np.maximum(end - start, 1e-12)[:, None, None]
-    out = (csum[1:] - c_start) / width
-    still = lengths <= 1e-6
-    out[still] = lin[still]
-    return out.astype(np.float32)
+    h, w = lin.shape[:2]
+    u, v, du, dv, radius = _flow_grids(h, w, float(cx), float(foe_row))
+    length = cv2.multiply(scale, radius)
+    row_max = cv2.reduce(length, 1, cv2.REDUCE_MAX).ravel()
+    rows = np.flatnonzero(row_max >= 0.5)
+    if rows.size == 0:
+        return lin
+    r0, r1 = int(rows[0]), int(rows[-1]) + 1
+    longest = float(row_max[r0:r1].max())
+    levels = min(max(1, math.ceil(math.log2(longest / max_step_px + 1.0))), 8)
+    fx = cv2.multiply(scale[r0:r1], du[r0:r1])
+    fy = cv2.multiply(scale[r0:r1], dv[r0:r1])
+    band = lin[r0:r1]
+    span = float(2**levels - 1)  # taps k / (2^n - 1), k = 0 .. 2^n - 1: both ends of the box
+    for j in range(levels):
+        step = float(2**j) / span
+        mapx = cv2.scaleAdd(fx, step, u[r0:r1])
+        mapy = cv2.scaleAdd(fy, step, v[r0:r1])
+        moved = cv2.remap(lin, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        cv2.addWeighted(band, 0.5, moved, 0.5, 0.0, dst=band)
+    return lin
 
 
-def shot_read_noise(electrons: np.ndarray, rng: np.random.Generator, *, shot: bool, read_noise_e: float) -> np.ndarray:
-    """Add photon shot noise (variance = mean, in e-) and Gaussian read noise (EMVA 1288).
+# ------------------------------------------------------------------ noise
+
+
+class NoiseTile:
+    """A pre-drawn field of standard normals, read through a random window per frame.
+
+    Drawing ``H x W x 3`` normals costs more than the rest of the sensor, so one field
+    of ``(H + ph) x (W + pw) x 3`` (``ph = max(H // 2, 64)``, ``pw = max(W // 2, 64)``)
+    is drawn once per episode; each frame reads the ``H x W`` window at an offset drawn
+    uniformly from the generator (never the previous frame's) with a random sign. A
+    window is a piece of one i.i.d. field, so nothing repeats inside a frame, and two
+    frames' noise at a pixel is uncorrelated unless the offsets and signs coincide.
 
     Parameters
     ----------
-    electrons : ndarray, float32, (H, W, C)
-        Expected signal in electrons (not modified).
+    height, width : int
+        Frame size in pixels.
     rng : numpy.random.Generator
+        The episode's sensor generator (draws the field now and the offsets later).
+    """
+
+    def __init__(self, height: int, width: int, rng: np.random.Generator) -> None:
+        self.height, self.width = int(height), int(width)
+        self.pad = (max(self.height // 2, 64), max(self.width // 2, 64))
+        shape = (self.height + self.pad[0], self.width + self.pad[1], 3)
+        self.field = rng.standard_normal(shape, dtype=np.float32)
+        self._last: tuple[int, int] | None = None
+
+    def window(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """The next frame's noise: an (H, W, 3) float32 view and its sign (+1 or -1)."""
+        while True:
+            oy, ox, flip = (int(k) for k in rng.integers(0, (self.pad[0] + 1, self.pad[1] + 1, 2)))
+            if (oy, ox) != self._last:
+                break
+        self._last = (oy, ox)
+        view = self.field[oy : oy + self.height, ox : ox + self.width]
+        return view, (-1.0 if flip else 1.0)
+
+
+def add_noise_dn(
+    signal_dn: np.ndarray,
+    normal: np.ndarray | None,
+    *,
+    sign: float = 1.0,
+    gain_dn_per_e: float,
+    shot: bool,
+    read_noise_e: float,
+) -> np.ndarray:
+    """Add shot and read noise (EMVA 1288) to a signal in digital numbers and digitise it.
+
+    The signal ``mu_e = signal_dn / K`` electrons (``K`` the conversion gain) has the
+    variance ``mu_e + sigma_read^2`` (Poisson shot noise in its normal approximation
+    plus read noise), i.e. ``K * signal_dn + (K sigma_read)^2`` in DN^2.
+
+    Parameters
+    ----------
+    signal_dn : ndarray, float32, (H, W, 3)
+        Expected signal in DN (not modified).
+    normal : ndarray, float32, (H, W, 3) or None
+        Standard normal samples (a :class:`NoiseTile` window); None when no noise is on.
+    sign : float
+        +1 or -1, multiplies ``normal``.
+    gain_dn_per_e : float
+        Conversion gain K in DN per electron.
     shot : bool
-        Add shot noise (normal approximation of the Poisson law).
+        Photon shot noise on.
     read_noise_e : float
         Read noise standard deviation in electrons.
 
     Returns
     -------
-    ndarray, float32, (H, W, C)
-        Noisy signal in electrons (may be negative before clipping).
+    ndarray, uint16, (H, W, 3)
+        Rounded, saturated digital numbers.
     """
-    out = electrons.astype(np.float32, copy=True)
-    if not shot and read_noise_e == 0.0:
-        return out
-    var = np.maximum(electrons, 0.0) if shot else np.zeros_like(out)
-    sigma = np.sqrt(var + np.float32(read_noise_e) ** 2, dtype=np.float32)
-    out += sigma * rng.standard_normal(out.shape, dtype=np.float32)
-    return out
+    if normal is None or (not shot and read_noise_e == 0.0):
+        return cv2.add(signal_dn, 0.0, dtype=cv2.CV_16U)  # type: ignore[call-overload]
+    k = float(gain_dn_per_e)
+    floor = (k * float(read_noise_e)) ** 2
+    var = cv2.addWeighted(signal_dn, k if shot else 0.0, signal_dn, 0.0, floor)
+    np.maximum(var, np.float32(0.0), out=var)
+    sigma = cv2.sqrt(var)
+    cv2.multiply(sigma, normal, dst=sigma, scale=float(sign))
+    return cv2.add(signal_dn, sigma, dtype=cv2.CV_16U)
+
+
+# ------------------------------------------------------------------ response, JPEG
 
 
 def response_curve(y: np.ndarray, *, shoulder: float, gamma: float) -> np.ndarray:
@@ -179,12 +274,31 @@ def response_curve(y: np.ndarray, *, shoulder: float, gamma: float) -> np.ndarra
     Maps 0 to 0 and 1 to 1; the shoulder ``k`` lifts shadows and compresses
     highlights as a filmic curve does.
     """
-    y = np.clip(y, 0.0, 1.0).astype(np.float32)
+    y = np.clip(np.asarray(y, dtype=np.float64), 0.0, 1.0)
     if shoulder > 0.0:
-        y = (np.float32(1.0 + shoulder) * y) / (np.float32(1.0) + np.float32(shoulder) * y)
+        y = (1.0 + shoulder) * y / (1.0 + shoulder * y)
     if gamma != 1.0:
-        y = np.power(y, np.float32(gamma), dtype=np.float32)
-    return y
+        y = y**gamma
+    return y.astype(np.float32)
+
+
+@functools.lru_cache(maxsize=8)
+def adc_response_lut(adc_bits: int, shoulder: float, gamma: float) -> np.ndarray:
+    """Digital number (0..65535) to the encoded 8-bit output: response curve, then sRGB.
+
+    Entry ``d`` is ``encode(response(d / (2**adc_bits - 1)))``; every ``d`` at or above
+    full scale is 255 (saturation).
+
+    Returns
+    -------
+    ndarray, uint8, (65536,)
+        Read-only table for ``np.take``.
+    """
+    full = 2**adc_bits - 1
+    y = response_curve(np.minimum(np.arange(65536, dtype=np.float64) / full, 1.0), shoulder=shoulder, gamma=gamma)
+    table = linear_to_srgb(y.reshape(256, 256, 1).repeat(3, axis=2))[..., 0].ravel().copy()
+    table.flags.writeable = False
+    return table
 
 
 def jpeg_roundtrip(rgb: np.ndarray, quality: int) -> np.ndarray:

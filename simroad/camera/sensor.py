@@ -3,16 +3,19 @@
 The rendered (and weathered) sRGB frame is decoded to linear scene radiance, then
 goes through what a real automotive camera does to it, in physical order:
 
-1. motion blur from the ego's forward speed during the exposure (per image row);
+1. motion blur from the ego's forward speed during the exposure, along the radial
+   flow out of the focus of expansion, its length from the depth map;
 2. vignetting, the cos^4 law of the field angle;
 3. exposure (nominal exposure time times the auto-exposure gain ``2**ev``) into
-   electrons, with photon shot noise and read noise (EMVA 1288's linear model),
-   saturating at the full-well capacity;
-4. the camera response curve (a highlight shoulder and a gamma) and sRGB encoding;
+   electrons, photon shot noise and read noise (EMVA 1288's linear model), and the
+   ADC (``adc_bits``, saturating at the full-well capacity);
+4. the camera response curve (a highlight shoulder and a gamma) and the encoding,
+   one table lookup from the digital number to the 8-bit output;
 5. optionally JPEG compression.
 
-The maths are pure functions; :class:`Sensor` only holds the auto-exposure state and
-the random generator of one episode. ``SensorParams.none()`` is the identity.
+The maths are pure functions (:mod:`simroad.camera._sensor_ops`); :class:`Sensor`
+holds the auto-exposure state, the generator and the pre-drawn noise field of one
+episode. ``SensorParams.none()`` is the identity.
 """
 
 from __future__ import annotations
@@ -22,30 +25,35 @@ import functools
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
 from simroad.camera._sensor_ops import (
+    NoiseTile,
+    adc_response_lut,
+    add_noise_dn,
     jpeg_roundtrip,
-    motion_blur_lengths,
+    motion_blur_scale,
+    radial_motion_blur,
     response_curve,
-    shot_read_noise,
-    vertical_motion_blur,
     vignetting_gain,
 )
 from simroad.camera.geometry import PinholeCamera
-from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear
+from simroad.noise.radiometry import srgb_to_linear
 
 __all__ = [
+    "NoiseTile",
     "Sensor",
     "SensorParams",
+    "adc_response_lut",
+    "add_noise_dn",
     "apply_sensor",
     "auto_exposure_update",
     "jpeg_roundtrip",
-    "motion_blur_lengths",
+    "motion_blur_scale",
+    "radial_motion_blur",
     "response_curve",
-    "shot_read_noise",
-    "vertical_motion_blur",
     "vignetting_gain",
 ]
 
@@ -62,8 +70,10 @@ class SensorParams:
     auto_exposure : bool
         Adapt the exposure over frames towards ``ae_target_mean``.
     ae_target_mean : float
-        Target mean of the exposed linear signal (fraction of full well), in (0, 1);
-        0.18 is photographic middle grey.
+        Target mean of the exposed linear signal (fraction of full well), in (0, 1).
+        The default 0.14 is half a clear frame's mean linear radiance (~0.28, sky
+        included), so that with the default shoulder (slope 2 at black) the rendered
+        mid-tones keep their level and the highlights roll off.
     ae_rate : float
         Fraction of the log2 exposure error corrected per frame, in (0, 1].
     ev_min, ev_max : float
@@ -78,30 +88,38 @@ class SensorParams:
         1.0 is plain sRGB.
     full_well_e : float
         Full-well capacity in electrons, in [100, 1e6].
+    adc_bits : int
+        ADC resolution in bits, in [8, 16]; full scale is the full well.
     shot_noise : bool
         Photon shot noise (Poisson, normal approximation: variance = signal in e-).
     read_noise_e : float
         Read noise standard deviation in electrons, in [0, 1000]; 0 turns it off.
     vignetting : bool
-        cos^4 fall-off of the field angle.
+        cos^n fall-off of the field angle.
+    vignetting_exponent : float
+        ``n``, in [0, 8]: 4 is a thin lens's natural vignetting (the cos^4 law); the
+        default 2 models a lens that partly compensates it, as automotive lenses do
+        (relative illumination ~60-80 % at the corner).
     motion_blur : bool
-        Per-row vertical blur from forward motion during the exposure.
+        Radial blur from forward motion during the exposure (length from the depth map).
     jpeg_quality : int or None
         JPEG quality in [1, 100], or None for no compression.
     """
 
     exposure_time_s: float = 0.005
     auto_exposure: bool = True
-    ae_target_mean: float = 0.18
+    ae_target_mean: float = 0.14
     ae_rate: float = 0.25
     ev_min: float = -4.0
     ev_max: float = 4.0
     tone_shoulder: float = 1.0
     gamma: float = 1.0
     full_well_e: float = 10_000.0
+    adc_bits: int = 12
     shot_noise: bool = True
     read_noise_e: float = 3.0
     vignetting: bool = True
+    vignetting_exponent: float = 2.0
     motion_blur: bool = True
     jpeg_quality: int | None = None
 
@@ -116,6 +134,7 @@ class SensorParams:
             "gamma": (0.2, 5.0, "", True),
             "full_well_e": (100.0, 1e6, "e-", True),
             "read_noise_e": (0.0, 1000.0, "e-", True),
+            "vignetting_exponent": (0.0, 8.0, "", True),
         }
         for name, (low, high, unit, low_inc) in ranges.items():
             high_inc = name not in ("ae_target_mean",)
@@ -125,6 +144,7 @@ class SensorParams:
             object.__setattr__(self, name, value)
         for name in ("auto_exposure", "shot_noise", "vignetting", "motion_blur"):
             object.__setattr__(self, name, check_bool(name, getattr(self, name)))
+        object.__setattr__(self, "adc_bits", check_int_in_range("adc_bits", self.adc_bits, 8, 16))
         if self.jpeg_quality is not None:
             object.__setattr__(self, "jpeg_quality", check_int_in_range("jpeg_quality", self.jpeg_quality, 1, 100))
 
@@ -145,18 +165,26 @@ class SensorParams:
     @property
     def is_identity(self) -> bool:
         """True when no effect is on (the frame passes unchanged)."""
-        return dataclasses.replace(self, exposure_time_s=SensorParams.none().exposure_time_s) == SensorParams.none()
+        effects = (self.auto_exposure, self.shot_noise, self.vignetting, self.motion_blur)
+        return (
+            not any(effects)
+            and self.read_noise_e == 0.0
+            and self.tone_shoulder == 0.0
+            and self.gamma == 1.0
+            and self.jpeg_quality is None
+        )
 
 
 # ------------------------------------------------------------------ pure maths
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=64)
 def auto_exposure_update(ev: float, measured_mean: float, params: SensorParams) -> float:
     """Next frame's exposure (EV): move ``ae_rate`` of the log2 error towards the target.
 
     ``ev' = clip(ev + rate * log2(target / measured), ev_min, ev_max)``, so without
-    saturation the log2 error shrinks by ``1 - rate`` per frame.
+    saturation the log2 error shrinks by ``1 - rate`` per frame: a time constant of
+    ``-1 / ln(1 - rate)`` frames (3.5 frames at the default 0.25).
     """
     if not params.auto_exposure:
         return ev
@@ -174,6 +202,7 @@ def apply_sensor(
     ev: float = 0.0,
     speed_m_s: float = 0.0,
     depth: np.ndarray | None = None,
+    noise: NoiseTile | None = None,
 ) -> tuple[np.ndarray, float]:
     """One frame through the sensor.
 
@@ -183,56 +212,74 @@ def apply_sensor(
         The rendered, weathered sRGB frame (not modified).
     params : SensorParams
     camera : PinholeCamera
-        Gives the focal length, principal point, horizon and mounting height.
+        Gives the focal length, principal point, horizon (focus of expansion).
     rng : numpy.random.Generator
-        Source of the shot and read noise.
+        Source of the noise (the window of ``noise``, or a fresh field without it).
     ev : float
         Current exposure in stops relative to ``params.exposure_time_s``.
     speed_m_s : float
-        Ego forward speed in m/s.
+        Ego forward speed in m/s (its magnitude is used).
     depth : ndarray, float32, (H, W), optional
-        Ground distance per pixel in metres (the renderer's depth map).
+        Horizontal distance per pixel in metres (the renderer's depth map); the flat
+        ground's (``camera.depth``) when None.
+    noise : NoiseTile, optional
+        Pre-drawn normal field of this frame size (:class:`Sensor` keeps one per
+        episode); without it the frame's normals are drawn from ``rng``.
 
     Returns
     -------
     rgb : ndarray, uint8, (H, W, 3)
     measured_mean : float
-        Mean exposed linear signal (fraction of full well, before noise), what the
-        auto-exposure meters.
+        Mean exposed linear signal (fraction of full well, before noise, clipped at
+        saturation), what the auto-exposure meters.
     """
     if params.is_identity:
-        return rgb.copy(), float(srgb_to_linear(rgb).mean())
-    lin = srgb_to_linear(rgb)
+        return rgb.copy(), float(cv2.mean(srgb_to_linear(rgb))[0])
+    lin = srgb_to_linear(rgb)  # a fresh float32 buffer: every step below may work in place
     h, w = lin.shape[:2]
     fx, cx, cy = float(camera.K[0, 0]), float(camera.K[0, 2]), float(camera.K[1, 2])
     gain = 2.0**ev
     if params.motion_blur:
-        lengths = motion_blur_lengths(
-            h,
-            focal_px=fx,
-            mount_height_m=camera.config.mount_height_m,
-            horizon_row=camera.horizon_row,
-            speed_m_s=speed_m_s,
-            exposure_s=params.exposure_time_s * gain,
-            depth=depth,
-        )
-        lin = vertical_motion_blur(lin, lengths)
+        travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
+        if travel > 0.0:
+            d = camera.depth if depth is None else depth
+            scale = motion_blur_scale(d, focal_px=fx, cx=cx, travel_m=travel)
+            lin = radial_motion_blur(lin, scale, cx=cx, foe_row=float(camera.horizon_row))
+    full = float(2**params.adc_bits - 1)
+    # Per-pixel arithmetic on (H, W*3) single-channel views: OpenCV applies a scalar
+    # operand to the first channel only of a multi-channel array.
+    flat = lin.reshape(h, w * 3)
     if params.vignetting:
-        lin = lin * vignetting_gain(h, w, fx, cx, cy)[:, :, None]
-    exposed = np.minimum(lin * np.float32(gain), np.float32(1.0))
-    measured = float(exposed.mean())
-    electrons = shot_read_noise(
-        exposed * np.float32(params.full_well_e), rng, shot=params.shot_noise, read_noise_e=params.read_noise_e
-    )
-    y = response_curve(electrons / np.float32(params.full_well_e), shoulder=params.tone_shoulder, gamma=params.gamma)
-    out = linear_to_srgb(np.ascontiguousarray(y, dtype=np.float32))
+        vig = vignetting_gain(h, w, fx, cx, cy, params.vignetting_exponent).reshape(h, w * 3)
+        signal = cv2.multiply(flat, vig, dst=flat, scale=gain * full)
+    else:
+        signal = np.multiply(flat, np.float32(gain * full), out=flat)
+    np.minimum(signal, np.float32(full), out=signal)  # the full well
+    measured = cv2.mean(signal)[0] / full
+    normal: np.ndarray | None = None
+    sign = 1.0
+    if params.shot_noise or params.read_noise_e > 0.0:
+        if noise is not None:
+            window, sign = noise.window(rng)
+            normal = window.reshape(h, w * 3)
+        else:
+            normal = np.asarray(rng.standard_normal((h, w * 3), dtype=np.float32))
+    dn = add_noise_dn(
+        signal,
+        normal,
+        sign=sign,
+        gain_dn_per_e=full / params.full_well_e,
+        shot=params.shot_noise,
+        read_noise_e=params.read_noise_e,
+    ).reshape(h, w, 3)
+    out = np.take(adc_response_lut(params.adc_bits, params.tone_shoulder, params.gamma), dn)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
 
 
 class Sensor:
-    """The stateful camera sensor of one episode: auto-exposure and noise generator.
+    """The stateful camera sensor of one episode: auto-exposure, generator, noise field.
 
     Parameters
     ----------
@@ -242,7 +289,10 @@ class Sensor:
     Attributes
     ----------
     ev : float
-        Current exposure in stops relative to the nominal exposure (0 after reset).
+        Current exposure in stops relative to the nominal exposure. After ``reset``
+        the first frame is metered and exposed at the target (a camera settles its
+        exposure before it streams); from then on the exposure follows with one frame
+        of latency at ``ae_rate``.
     """
 
     def __init__(self, params: SensorParams, camera: PinholeCamera) -> None:
@@ -252,20 +302,36 @@ class Sensor:
         self.camera = camera
         self.ev = 0.0
         self._rng: np.random.Generator | None = None
+        self._settled = False
+        self._noise: NoiseTile | None = None
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode: exposure back to nominal, noise drawn from ``rng``."""
+        """Start an episode: exposure back to nominal, noise field drawn from ``rng``."""
         if not isinstance(rng, np.random.Generator):
             raise SimroadError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}.")
         self._rng = rng
         self.ev = 0.0
+        self._settled = not self.params.auto_exposure
+        p, c = self.params, self.camera.config
+        self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
 
     def apply(self, rgb: np.ndarray, *, speed_m_s: float = 0.0, depth: np.ndarray | None = None) -> np.ndarray:
         """Expose one frame (uint8 RGB, H x W x 3) and adapt the exposure for the next."""
         if self._rng is None:
             raise SimroadError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
+        if not self._settled:
+            # A camera settles its exposure before it streams: the first frame is
+            # metered at the nominal exposure and exposed at the target.
+            measured = float(cv2.mean(srgb_to_linear(rgb).reshape(rgb.shape[0], -1))[0])
+            self.ev = auto_exposure_update(0.0, min(measured, 1.0), dataclasses.replace(self.params, ae_rate=1.0))
+            self._settled = True
+        noise = (
+            self._noise
+            if self._noise is not None and rgb.shape[:2] == (self._noise.height, self._noise.width)
+            else None
+        )
         out, measured = apply_sensor(
-            rgb, self.params, self.camera, self._rng, ev=self.ev, speed_m_s=speed_m_s, depth=depth
+            rgb, self.params, self.camera, self._rng, ev=self.ev, speed_m_s=speed_m_s, depth=depth, noise=noise
         )
         self.ev = auto_exposure_update(self.ev, measured, self.params)
         return out

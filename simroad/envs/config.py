@@ -56,8 +56,9 @@ class RoadCamConfig:
         road surface, in metres.
     camera_effects : bool or SensorParams
         The camera sensor after the weather (auto-exposure, response curve, shot and
-        read noise, vignetting, motion blur, JPEG; docs/camera.md). False (default)
-        is the perfect pinhole; True uses the default :class:`SensorParams`.
+        read noise, ADC, vignetting, motion blur, optional JPEG; docs/camera.md).
+        True (default) uses the default :class:`SensorParams`; False is the perfect
+        pinhole (frames bit-identical to the renderer and weather output).
     """
 
     scenario: str = "racetrack"
@@ -70,7 +71,7 @@ class RoadCamConfig:
     duration_s: float = 60.0
     roadside: str | None = None
     max_offroad_m: float = 3.0
-    camera_effects: bool | SensorParams = False
+    camera_effects: bool | SensorParams = True
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)

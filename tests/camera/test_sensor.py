@@ -10,12 +10,8 @@ import pytest
 
 from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, PinholeCamera, Sensor, SensorParams
-from simroad.camera.sensor import (
-    apply_sensor,
-    motion_blur_lengths,
-    vertical_motion_blur,
-)
-from simroad.envs import RoadCamEnv
+from simroad.camera.sensor import NoiseTile, apply_sensor, motion_blur_scale, radial_motion_blur
+from simroad.envs import RoadCamConfig, RoadCamEnv
 from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear
 
 CAM = PinholeCamera(CameraConfig(width=64, height=48, hfov_deg=90.0, pitch_deg=0.0))
@@ -32,12 +28,18 @@ def test_identity_params_are_bit_identical():
     assert out.dtype == np.uint8 and np.array_equal(out, img) and out is not img
 
 
-def test_same_seed_same_output_different_seed_differs():
-    img, p = _frame(), SensorParams(jpeg_quality=80)
-    a, _ = apply_sensor(img, p, CAM, np.random.default_rng(1), speed_m_s=20.0)
-    b, _ = apply_sensor(img, p, CAM, np.random.default_rng(1), speed_m_s=20.0)
-    c, _ = apply_sensor(img, p, CAM, np.random.default_rng(2), speed_m_s=20.0)
-    assert np.array_equal(a, b) and not np.array_equal(a, c)
+def test_same_seed_same_frames_different_seed_different_noise():
+    img = _frame()
+
+    def run(seed):
+        s = Sensor(SensorParams(), CAM)
+        s.reset(np.random.default_rng(seed))
+        return [s.apply(img, speed_m_s=20.0) for _ in range(3)]
+
+    a, b, c = run(1), run(1), run(2)
+    assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
+    assert not any(np.array_equal(x, y) for x, y in zip(a, c, strict=True))
+    assert not np.array_equal(a[1], a[2])  # a new noise window every frame
 
 
 def test_input_not_mutated():
@@ -47,56 +49,77 @@ def test_input_not_mutated():
     assert np.array_equal(img, before)
 
 
-def test_shot_and_read_noise_variance_matches_poisson_gaussian_model():
+@pytest.mark.parametrize("code", [60, 128, 200])
+def test_noise_mean_and_variance_follow_emva_1288(code):
     # Flat grey of linear radiance L at ev=0: mean signal mu = L * FW electrons;
     # EMVA 1288: variance = mu (shot) + sigma_read^2, in electrons.
     fw, read = 1000.0, 20.0
-    p = dataclasses.replace(OFF, shot_noise=True, read_noise_e=read, full_well_e=fw)
+    p = dataclasses.replace(OFF, shot_noise=True, read_noise_e=read, full_well_e=fw, adc_bits=16)
     cam = PinholeCamera(CameraConfig(width=400, height=300, pitch_deg=0.0))
-    img = np.full((300, 400, 3), 128, np.uint8)
+    img = np.full((300, 400, 3), code, np.uint8)
     lin_in = float(srgb_to_linear(img)[0, 0, 0])
     mu = lin_in * fw
-    expected_sd_e = math.sqrt(mu + read**2)
-    out, _ = apply_sensor(img, p, cam, np.random.default_rng(0))
-    # Back to electrons through the (invertible) sRGB encoding.
-    electrons = srgb_to_linear(out).astype(np.float64) * fw
+    sensor = Sensor(p, cam)
+    sensor.reset(np.random.default_rng(0))
+    out = sensor.apply(img)
+    electrons = srgb_to_linear(out).astype(np.float64) * fw  # back through the sRGB encoding
+    # 8-bit output quantisation adds step^2/12 (step = electrons per output code here).
+    step = (float(srgb_to_linear(np.full((1, 1, 3), code + 1, np.uint8))[0, 0, 0]) - lin_in) * fw
     assert electrons.mean() == pytest.approx(mu, rel=0.01)
-    # 8-bit quantisation adds step^2/12 (step ~ fw * d(lin)/d(code) at this level).
-    step = (float(srgb_to_linear(np.full((1, 1, 3), 129, np.uint8))[0, 0, 0]) - lin_in) * fw
-    assert electrons.std() == pytest.approx(math.sqrt(expected_sd_e**2 + step**2 / 12), rel=0.03)
-    assert electrons.std() > 1.5 * math.sqrt(mu)  # the read noise is really there
+    assert electrons.std() == pytest.approx(math.sqrt(mu + read**2 + step**2 / 12), rel=0.04)
 
 
-def test_vignetting_corner_is_cos4_of_field_angle():
+def test_noise_tile_windows_are_uncorrelated_between_frames():
+    rng = np.random.default_rng(3)
+    tile = NoiseTile(48, 64, rng)
+    frames = []
+    for _ in range(60):
+        view, sign = tile.window(rng)
+        assert view.shape == (48, 64, 3) and sign in (-1.0, 1.0)
+        frames.append(sign * view.ravel())
+    stack = np.array(frames)
+    corr = np.corrcoef(stack)
+    off = corr[~np.eye(len(frames), dtype=bool)]
+    assert np.abs(off).max() < 0.06  # n = 9216 samples: sd of r ~ 0.01
+    # Within a frame the field is i.i.d. (no tiling inside a frame): unit variance,
+    # no correlation at a lag of one pixel.
+    f = stack[0].reshape(48, 64, 3)
+    assert f.std() == pytest.approx(1.0, abs=0.03)
+    assert abs(np.corrcoef(f[:, 1:].ravel(), f[:, :-1].ravel())[0, 1]) < 0.05
+
+
+@pytest.mark.parametrize("exponent", [4.0, 2.0])
+def test_vignetting_corner_is_cos_n_of_field_angle(exponent):
     # 64 x 48 at 90 deg hfov: f = 32 px; centre (31.5, 23.5); corner pixel (0, 0)
     # is r = hypot(31.5, 23.5) px off axis, field angle atan(r / f).
-    p = dataclasses.replace(OFF, vignetting=True)
-    lin = np.full((48, 64, 3), 0.5, np.float32)
-    img = linear_to_srgb(lin)
+    p = dataclasses.replace(OFF, vignetting=True, vignetting_exponent=exponent, adc_bits=16)
+    img = linear_to_srgb(np.full((48, 64, 3), 0.5, np.float32))
     out, _ = apply_sensor(img, p, CAM, np.random.default_rng(0))
     ratio = srgb_to_linear(out)[0, 0, 0] / srgb_to_linear(img)[0, 0, 0]
     theta = math.atan(math.hypot(31.5, 23.5) / 32.0)
-    assert ratio == pytest.approx(math.cos(theta) ** 4, abs=0.01)
-    assert math.cos(theta) ** 4 < 0.5  # a corner that is really darker
+    assert ratio == pytest.approx(math.cos(theta) ** exponent, abs=0.01)
 
 
-@pytest.mark.parametrize("level", [0.02, 0.8])
-def test_auto_exposure_converges_at_its_rate(level):
-    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.18, ae_rate=0.3)
+def test_auto_exposure_settles_then_follows_a_step_at_its_rate():
+    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.18, ae_rate=0.3, adc_bits=16)
     sensor = Sensor(p, CAM)
     sensor.reset(np.random.default_rng(0))
-    img = linear_to_srgb(np.full((48, 64, 3), level, np.float32))
-    lin = float(srgb_to_linear(img).mean())
+    bright = linear_to_srgb(np.full((48, 64, 3), 0.4, np.float32))
+    out = sensor.apply(bright)  # the first frame is metered and exposed at the target
+    assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.02)
+    dark = linear_to_srgb(np.full((48, 64, 3), 0.05, np.float32))  # entering a shadow
+    lin = float(srgb_to_linear(dark).mean())
     errors = []
-    for _ in range(25):
-        out = sensor.apply(img)
+    for _ in range(30):
+        out = sensor.apply(dark)
         errors.append(math.log2(0.18) - math.log2(min(lin * 2.0**sensor.ev, 1.0)))
-    # Before saturation matters, the log2 error shrinks by (1 - rate) per frame.
-    first = math.log2(0.18 / lin)
-    assert errors[0] == pytest.approx(first * 0.7, rel=1e-3)
-    assert errors[1] == pytest.approx(first * 0.7**2, rel=1e-3)
+    # One frame of latency, then the log2 error shrinks by (1 - rate) per frame:
+    # a time constant of -1 / ln(1 - rate) frames.
+    first = math.log2(0.18 / (lin * 2.0 ** math.log2(0.18 / 0.4)))
+    assert errors[0] == pytest.approx(first * 0.7, rel=2e-3)
+    assert errors[1] == pytest.approx(first * 0.7**2, rel=2e-3)
     assert abs(errors[-1]) < 0.01
-    assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.05)
+    assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.03)
 
 
 def test_auto_exposure_stops_at_its_limits():
@@ -110,45 +133,71 @@ def test_auto_exposure_stops_at_its_limits():
     assert sensor.ev == 0.0
 
 
-def test_motion_blur_length_matches_ground_flow_by_hand():
-    # Zero pitch: row y sees the ground at Z0 = f h / (y - cy). f = 32, h = 1.3.
+def test_motion_blur_scale_matches_ground_flow_by_hand():
+    # Zero pitch: row y sees the ground at Z = f h / (y - cy) on the centre column;
+    # over the exposure it moves by f h (1 / (Z - vT) - 1 / Z) pixels.
     f, h, cy = 32.0, 1.3, 23.5
-    v, t = 20.0, 0.01
-    lengths = motion_blur_lengths(48, focal_px=f, mount_height_m=h, horizon_row=cy, speed_m_s=v, exposure_s=t)
-    y = 40
-    z0 = f * h / (y - cy)
-    assert lengths[y] == pytest.approx(f * h * (1.0 / (z0 - v * t) - 1.0 / z0))
-    assert np.all(lengths[:24] == 0.0)  # sky does not move
-    zero = motion_blur_lengths(48, focal_px=f, mount_height_m=h, horizon_row=cy, speed_m_s=0.0, exposure_s=t)
-    assert np.all(zero == 0.0)
-    # With a depth map the row's distance comes from it.
-    depth = np.full((48, 64), np.inf, np.float32)
-    depth[30] = 5.0
-    d = motion_blur_lengths(48, focal_px=f, mount_height_m=h, horizon_row=cy, speed_m_s=v, exposure_s=t, depth=depth)
-    assert d[30] == pytest.approx(f * h * (1.0 / (5.0 - v * t) - 1.0 / 5.0), rel=1e-6)
-    assert np.count_nonzero(d) == 1
+    travel = 20.0 * 0.01
+    s = motion_blur_scale(CAM.depth, focal_px=f, cx=31.5, travel_m=travel)
+    y, x = 40, 31  # near the centre column: bearing ~ 0
+    z = float(CAM.depth[y, x]) * 32.0 / math.hypot(32.0, 0.5)
+    assert s[y, x] * (y - cy) == pytest.approx(f * h * (1.0 / (z - travel) - 1.0 / z), rel=1e-4)
+    assert np.all(s[:24] == 0.0)  # the sky does not move
+    assert np.all(motion_blur_scale(CAM.depth, focal_px=f, cx=31.5, travel_m=0.0) == 0.0)
+    s2 = motion_blur_scale(CAM.depth, focal_px=f, cx=31.5, travel_m=2 * travel)
+    assert s2[y, x] / s[y, x] == pytest.approx(2.0 * (z - travel) / (z - 2 * travel), rel=1e-4)
 
 
-def test_vertical_blur_spreads_a_line_over_its_length():
-    lin = np.zeros((20, 4, 3), np.float32)
-    lin[5] = 1.0
-    lengths = np.full(20, 4.0)
-    out = vertical_motion_blur(lin, lengths)
-    # A pixel averages the 4 rows above it (itself included): rows 5..8 see the line.
-    np.testing.assert_allclose(out[:, 0, 0], [0.25 if 5 <= r <= 8 else 0.0 for r in range(20)], atol=1e-6)
-    assert out.sum() == pytest.approx(lin.sum())
-    assert np.array_equal(vertical_motion_blur(lin, np.zeros(20)), lin)
+def test_radial_blur_smears_a_point_away_from_the_focus_of_expansion():
+    # A point at (col 50, row 40) with e = (31.5, 23.5): the flow is diagonal, the
+    # smear spreads along (p - e) over s |p - e| pixels, its centroid half-way.
+    lin = np.zeros((48, 64, 3), np.float32)
+    lin[40, 50] = 1.0
+    scale = np.full((48, 64), 0.3, np.float32)
+    out = radial_motion_blur(lin.copy(), scale, cx=31.5, foe_row=23.5)
+    w = out[..., 0].astype(np.float64)
+    rows, cols = np.mgrid[0:48, 0:64]
+    cy_, cx_ = (w * rows).sum() / w.sum(), (w * cols).sum() / w.sum()
+    # Pixel p gathers from p + t (p - e) s: the light of the point reaches the pixels
+    # q with q + t (q - e) s = point, i.e. towards the focus of expansion.
+    t = np.linspace(0.0, 1.0, 1001)
+    q = (np.array([50.0, 40.0]) + t[:, None] * 0.3 * np.array([31.5, 23.5])) / (1.0 + 0.3 * t[:, None])
+    assert cx_ == pytest.approx(q[:, 0].mean(), abs=0.35)
+    assert cy_ == pytest.approx(q[:, 1].mean(), abs=0.35)
+    # The smear lies along the radial line (no vertical-only streak).
+    assert (cx_ - 50.0) / (cy_ - 40.0) == pytest.approx((50 - 31.5) / (40 - 23.5), rel=0.1)
+    flat = np.full((48, 64, 3), 0.3, np.float32)
+    np.testing.assert_allclose(radial_motion_blur(flat.copy(), scale, cx=31.5, foe_row=23.5), flat, atol=1e-6)
+    still = radial_motion_blur(lin.copy(), np.zeros((48, 64), np.float32), cx=31.5, foe_row=23.5)
+    assert np.array_equal(still, lin)
 
 
-def test_jpeg_changes_the_frame_only_when_on():
+def test_blur_grows_with_speed():
+    img = linear_to_srgb(np.random.default_rng(0).random((48, 64, 3), dtype=np.float32))
+    p = dataclasses.replace(OFF, motion_blur=True, adc_bits=16)
+    diffs = []
+    for v in (0.0, 10.0, 40.0):
+        out, _ = apply_sensor(img, p, CAM, np.random.default_rng(0), speed_m_s=v)
+        diffs.append(np.abs(out.astype(int) - img.astype(int))[30:].mean())
+    assert diffs[0] < 0.6 < diffs[1] < diffs[2]
+
+
+def test_jpeg_error_falls_with_quality():
     img = _frame()
-    on, _ = apply_sensor(img, dataclasses.replace(OFF, jpeg_quality=50), CAM, np.random.default_rng(0))
-    off, _ = apply_sensor(img, OFF, CAM, np.random.default_rng(0))
-    assert not np.array_equal(on, img) and np.array_equal(off, img)
-    assert on.shape == img.shape and on.dtype == np.uint8
+    errors = []
+    for q in (10, 50, 95):
+        on, _ = apply_sensor(img, dataclasses.replace(OFF, jpeg_quality=q), CAM, np.random.default_rng(0))
+        assert on.shape == img.shape and on.dtype == np.uint8
+        errors.append(np.abs(on.astype(int) - img.astype(int)).mean())
+    assert errors[0] > errors[1] > errors[2] > 0
 
 
-_BAD = {bool: ["yes", 2, None], float: [-1e9, float("nan"), 1e9, "x", None], "jpeg": [0, 101, 5.5, "high"]}
+_BAD = {
+    bool: ["yes", 2, None],
+    float: [-1e9, float("nan"), 1e9, "x", None],
+    int: [7, 17, 5.5, "x", None],
+    "jpeg": [0, 101, 5.5, "high"],
+}
 
 
 @pytest.mark.parametrize("field", [f.name for f in dataclasses.fields(SensorParams)])
@@ -165,10 +214,15 @@ def test_sensor_requires_reset():
         Sensor(SensorParams(), CAM).apply(_frame())
 
 
+def test_camera_effects_on_by_default():
+    assert RoadCamConfig().camera_effects is True
+    assert RoadCamConfig().sensor_params == SensorParams()
+
+
 @pytest.mark.parametrize("effects", [True, SensorParams(jpeg_quality=60)])
 def test_env_with_camera_effects_runs(effects):
     env = RoadCamEnv(width=96, height=64, camera_effects=effects)
-    plain = RoadCamEnv(width=96, height=64)
+    plain = RoadCamEnv(width=96, height=64, camera_effects=False)
     obs, _ = env.reset(seed=4)
     ref, _ = plain.reset(seed=4)
     for _ in range(3):
@@ -180,16 +234,21 @@ def test_env_with_camera_effects_runs(effects):
         RoadCamEnv(camera_effects="on")
 
 
-def test_env_without_camera_effects_is_bit_identical():
-    a, b = (
-        RoadCamEnv(noise="rain", width=96, height=64),
-        RoadCamEnv(noise="rain", width=96, height=64, camera_effects=False),
-    )
-    oa, ia = a.reset(seed=7)
-    ob, ib = b.reset(seed=7)
-    for _ in range(4):
-        assert np.array_equal(oa, ob) and np.array_equal(ia["road_mask"], ib["road_mask"])
-        assert ia["lateral_offset_m"] == ib["lateral_offset_m"]
-        oa, _, _, _, ia = a.step(np.array([0.1], np.float32))
-        ob, _, _, _, ib = b.step(np.array([0.1], np.float32))
-    assert b.sensor is None
+def test_env_without_camera_effects_is_the_perfect_pinhole():
+    env = RoadCamEnv(width=96, height=64, camera_effects=False)
+    obs, info = env.reset(seed=7)
+    assert env.sensor is None
+    for _ in range(3):
+        frame = env.renderer.render(env._pose(), env._others())
+        assert np.array_equal(obs, frame.rgb) and np.array_equal(info["road_mask"], frame.road_mask)
+        obs, _, _, _, info = env.step(np.array([0.1], np.float32))
+
+
+def test_env_same_seed_same_frames_with_effects():
+    a, b = RoadCamEnv(width=96, height=64), RoadCamEnv(width=96, height=64)
+    oa, _ = a.reset(seed=5)
+    ob, _ = b.reset(seed=5)
+    for _ in range(3):
+        assert np.array_equal(oa, ob)
+        oa, *_ = a.step(np.array([0.05], np.float32))
+        ob, *_ = b.step(np.array([0.05], np.float32))
