@@ -13,6 +13,7 @@ from gymnasium import spaces
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
+from simroad.camera.scenery import Scenery
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
 from simroad.noise import NoiseContext, Weather, make_weather
@@ -148,6 +149,17 @@ class RoadCamEnv(gym.Env):
         palette = draw_palette(world_rng, roadside=self.config.roadside)
         self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)
         self.renderer = CameraRenderer(self.camera, self.world, world_rng)
+        # The world's last draw: the scenery seed (only the scenery shifts with it).
+        scenery_seed = int(world_rng.integers(2**63 - 1))
+        if self.config.scenery > 0:
+            self.world.scenery = Scenery(  # type: ignore[assignment]  # WorldRaster.scenery is typed None on main
+                self.world.shapes,
+                scenery_seed,
+                profile=getattr(self.scenario, "profile", "rural"),
+                density=self.config.scenery,
+                shoulder_m=palette.shoulder_width_m,
+                sidewalk_m=getattr(palette, "sidewalk_width_m", 0.0),
+            )
         self._vehicle_rgb = {}
         self._colour_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
         weather_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
