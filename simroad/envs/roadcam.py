@@ -285,6 +285,8 @@ class RoadCamEnv(gym.Env):
                 ego_yaw_rate=yaw / self.dt,
                 dt=self.dt,
                 time_s=self._time,
+                face_id=getattr(frame, "face_id", None),  # the painter's Frame carries them
+                faces=getattr(frame, "faces", None),
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
         if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)
