@@ -204,7 +204,7 @@ class Scenery:
                 p0, p1 = base + normal * (sh + 0.25), nxt[3:5] + nxt[6:8] * (sh + 0.25)
                 if self._clear(np.array([p0, p1]), 0.2):
                     kinds.guard_rail(b, draw_albedo("galvanised_steel", st), p0, p1, normal)
-            elif joined and u[1] < self._p(p.wall_p):
+            if joined and u[1] < self._p(p.wall_p):  # behind a rail, if there is one
                 off = sh + sw + 1.0 + 2.0 * u[2]
                 p0, p1 = base + normal * off, nxt[3:5] + nxt[6:8] * off
                 if self._clear(np.array([p0, p1]), sw + 0.9):

@@ -120,7 +120,7 @@ def test_without_scenery_only_vehicles_and_the_ego_cast(scene):
     p = ShadowParams(sun_azimuth_deg=180.0, sun_elevation_deg=15.0, vehicle_shadows=False, ego_shadow=False)
     w = make_weather("shadow", params={"shadow": p})
     w.reset(0, world=scene.world)
-    out, masks = w.apply(scene.frame.rgb, scene.ctx())
+    _, masks = w.apply(scene.frame.rgb, scene.ctx())
     assert not masks["shadow"].any()
 
 
