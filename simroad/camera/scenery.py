@@ -262,6 +262,19 @@ class Scenery:
         # Rates per km of road edge over a band ~25 m wide: per m^2 = rate / 25e3.
         area = c * c / 25_000.0
         sw = self.sidewalk_m
+        placed: list[tuple[np.ndarray, float, float, float]] = []  # houses: centre, heading, half sizes
+        for _ in range(rng.poisson(self._rate(p.houses_per_km) * area)):
+            at = box + rng.random(2) * c
+            near = self.road.nearest(at)
+            if near is None:
+                continue
+            heading, _ = near
+            front, depth = rng.uniform(8.0, 16.0), rng.uniform(7.0, 12.0)
+            corners = rect(at, heading, front, depth)
+            d = self.road.distance(at[None], reach=40.0)[0]
+            if d < 35.0 and self._clear(np.vstack([corners, at[None]]), sw + 4.0):
+                kinds.building(b, rng, at, heading, front, depth, int(rng.integers(1, 4)))
+                placed.append((at, heading, front / 2 + 0.5, depth / 2 + 0.5))
         pts, shape, radius = [], [], []
         for _ in range(rng.poisson(self._rate(p.trees_per_km) * area)):
             at = box + rng.random(2) * c
@@ -277,19 +290,13 @@ class Scenery:
             ring = (P[:, None, :] + R[:, None, None] * _RING[None]).reshape(-1, 2)
             d = self.road.distance(np.vstack([P, ring]), reach=40.0)
             ok = (d[:n] < 30.0) & (d[n:].reshape(n, len(_RING)).min(axis=1) >= self.shoulder_m + sw + 0.5)
+            for at, heading, hx, hy in placed:  # no crown in a house's walls
+                rel = P - at
+                lx = np.abs(rel @ np.array([math.cos(heading), math.sin(heading)]))
+                ly = np.abs(rel @ np.array([-math.sin(heading), math.cos(heading)]))
+                ok &= (lx > hx + R) | (ly > hy + R)
             for k in np.flatnonzero(ok).tolist():
                 kinds.tree(b, rng, P[k], shape[k], float(R[k]))
-        for _ in range(rng.poisson(self._rate(p.houses_per_km) * area)):
-            at = box + rng.random(2) * c
-            near = self.road.nearest(at)
-            if near is None:
-                continue
-            heading, _ = near
-            front, depth = rng.uniform(8.0, 16.0), rng.uniform(7.0, 12.0)
-            corners = rect(at, heading, front, depth)
-            d = self.road.distance(at[None], reach=40.0)[0]
-            if d < 35.0 and self._clear(np.vstack([corners, at[None]]), sw + 4.0):
-                kinds.building(b, rng, at, heading, front, depth, int(rng.integers(1, 4)))
         n_signs = rng.poisson(self._rate(p.signs_per_km) * c / 1000.0)
         e = self.road.edge_samples(i, j, self.shoulder_m + sw + 0.8) if n_signs else np.zeros((0, 8))
         for _ in range(n_signs if len(e) else 0):
