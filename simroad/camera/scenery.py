@@ -43,7 +43,7 @@ __all__ = ["HIGH_M", "PROFILES", "STRETCH_M", "Scenery", "SceneryProfile"]
 
 #: Length of the road-edge stretches that decide rails, walls, lights, facades, m.
 STRETCH_M = 120.0
-_MARGIN_M = 30.0  # largest reach of an object beyond its anchor's cell, m
+_MARGIN_M = 45.0  # largest reach of an object beyond its anchor's cell (overpass decks), m
 #: Solids whose lowest point is at least this high (m) may reach over the road and
 #: its shoulder (overpass decks, light arms, street-tree crowns); none lower does.
 HIGH_M = 3.0
@@ -76,7 +76,7 @@ PROFILES: dict[str, SceneryProfile] = {
     ),
     "urban": SceneryProfile(
         trees_per_km=4.0, clump_p=0.0, conifer_p=0.1, houses_per_km=0.0, signs_per_km=14.0,
-        lights_p=0.9, light_arm_p=0.9, rail_p=0.0, wall_p=0.04, overpass_per_km=0.1,
+        lights_p=0.9, light_arm_p=0.9, rail_p=0.0, wall_p=0.0, overpass_per_km=0.1,
         facade_p=0.9, street_trees_p=0.6,
     ),
 }  # fmt: skip
@@ -298,11 +298,13 @@ class Scenery:
             for k in np.flatnonzero(ok).tolist():
                 kinds.tree(b, rng, P[k], shape[k], float(R[k]))
         n_signs = rng.poisson(self._rate(p.signs_per_km) * c / 1000.0)
-        e = self.road.edge_samples(i, j, self.shoulder_m + sw + 0.8) if n_signs else np.zeros((0, 8))
+        e = self.road.edge_samples(i, j, self.shoulder_m + 0.8) if n_signs else np.zeros((0, 10))
         for _ in range(n_signs if len(e) else 0):
             row = e[int(rng.integers(len(e)))]
-            at = row[3:5] + row[6:8] * (self.shoulder_m + sw + rng.uniform(0.5, 1.5))
-            if self._clear(at[None], sw + 0.4):
+            # Beside the road, or at the kerb side of a sidewalk (facades stand behind it).
+            off = self.shoulder_m + (rng.uniform(0.3, 0.6) if sw > 0 else rng.uniform(0.5, 1.5))
+            at = row[3:5] + row[6:8] * off
+            if self._clear(at[None], 0.2):
                 kinds.sign(b, rng, at, float(row[5]) + np.pi, draw_albedo("galvanised_steel", rng))
 
     def _overpass(self, b: SolidBuilder, rng: np.random.Generator, i: int, j: int) -> None:
