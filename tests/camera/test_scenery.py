@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 import pytest
@@ -143,3 +145,18 @@ def test_a_town_street_has_continuous_facades_behind_the_sidewalk():
     trunks_low = trees.vertices[..., 2].min(axis=1) < 0.01
     # Street trees stand at the kerb side of the sidewalk, not on the road.
     assert np.abs(trees.vertices[trunks_low][..., 1]).min() >= 5.0
+
+
+def test_every_solid_stays_within_reach_of_its_cell(world):
+    """``meshes(box)`` finds a solid from the cells within ``_MARGIN_M`` of the box."""
+    from simroad.camera.scenery import _MARGIN_M
+
+    dense = Scenery(world.shapes, 8, density=5.0, shoulder_m=world.palette.shoulder_width_m)
+    c = dense.cell_m
+    x0, y0, x1, y1 = _region(world, 600.0)
+    for i in range(math.floor(x0 / c), math.floor(x1 / c) + 1):
+        for j in range(math.floor(y0 / c), math.floor(y1 / c) + 1):
+            v = dense.cell(i, j).vertices
+            if len(v):
+                assert v[..., 0].min() >= i * c - _MARGIN_M and v[..., 0].max() <= (i + 1) * c + _MARGIN_M
+                assert v[..., 1].min() >= j * c - _MARGIN_M and v[..., 1].max() <= (j + 1) * c + _MARGIN_M
