@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from dataclasses import dataclass
+from typing import Protocol
 
 import cv2
 import numpy as np
@@ -49,6 +50,7 @@ __all__ = [
     "VEHICLE",
     "WALL",
     "LaneShape",
+    "SceneryLike",
     "Window",
     "WorldRaster",
     "lane_shapes",
@@ -208,6 +210,12 @@ class Window:
         )
 
 
+class SceneryLike(Protocol):
+    """What :attr:`WorldRaster.scenery` holds: anything that returns its faces in a box."""
+
+    def meshes(self, xmin: float, ymin: float, xmax: float, ymax: float) -> Mesh: ...
+
+
 class WorldRaster:
     """Lazily tiled ground raster of a road network.
 
@@ -262,7 +270,7 @@ class WorldRaster:
         self._windows: dict[str, Window] = {}
         #: What stands on the ground (trees, poles, buildings, ...): any object with
         #: ``meshes(xmin, ymin, xmax, ymax) -> Mesh``; ``None`` for a bare world.
-        self.scenery = None
+        self.scenery: SceneryLike | None = None
 
     def objects(self, xmin: float, ymin: float, xmax: float, ymax: float) -> Mesh:
         """The scenery faces that may lie in the world box (metres)."""

@@ -59,6 +59,10 @@ class RoadCamConfig:
         read noise, ADC, vignetting, motion blur, optional JPEG; docs/camera.md).
         True (default) uses the default :class:`SensorParams`; False is the perfect
         pinhole (frames bit-identical to the renderer and weather output).
+    scenery : float
+        Density scale of the world's scenery (trees, poles, signs, buildings, walls,
+        guard rails, overpasses; :mod:`simroad.camera.scenery`) in [0, 5]: 0 is a
+        bare world, 1 the scenario's profile, higher values denser.
     """
 
     scenario: str = "racetrack"
@@ -72,6 +76,7 @@ class RoadCamConfig:
     roadside: str | None = None
     max_offroad_m: float = 3.0
     camera_effects: bool | SensorParams = True
+    scenery: float = 1.0
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -88,6 +93,7 @@ class RoadCamConfig:
         if not isinstance(self.noise, str):
             raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
         object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
+        object.__setattr__(self, "scenery", check_in_range("scenery", self.scenery, 0.0, 5.0))
         check_bool("longitudinal", self.longitudinal)
         check_bool("traffic", self.traffic)
         _check_noise_params(self.noise_params, self.noise)

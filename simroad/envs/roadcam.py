@@ -13,6 +13,7 @@ from gymnasium import spaces
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
+from simroad.camera.scenery import Scenery
 from simroad.camera.vehicles import draw_paint, paint_rgb
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
@@ -149,6 +150,17 @@ class RoadCamEnv(gym.Env):
         palette = draw_palette(world_rng, roadside=self.config.roadside)
         self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)
         self.renderer = CameraRenderer(self.camera, self.world, world_rng)
+        # The world's last draw: the scenery seed (only the scenery shifts with it).
+        scenery_seed = int(world_rng.integers(2**63 - 1))
+        if self.config.scenery > 0:
+            self.world.scenery = Scenery(
+                self.world.shapes,
+                scenery_seed,
+                profile=getattr(self.scenario, "profile", "rural"),
+                density=self.config.scenery,
+                shoulder_m=palette.shoulder_width_m,
+                sidewalk_m=getattr(palette, "sidewalk_width_m", 0.0),
+            )
         self._vehicle_rgb = {}
         self._colour_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
         weather_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
@@ -282,6 +294,8 @@ class RoadCamEnv(gym.Env):
                 ego_yaw_rate=yaw / self.dt,
                 dt=self.dt,
                 time_s=self._time,
+                face_id=getattr(frame, "face_id", None),  # the painter's Frame carries them
+                faces=getattr(frame, "faces", None),
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
         if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)

@@ -21,8 +21,8 @@ rain     rate 100·s² mm/h (Marshall–Palmer drops 0.5–7 mm, Gunn–Kinzer s
 snow     3000·s^1.5 flakes/m³ of 1–5 mm at 0.5–2 m/s, wind 6·s m/s, flutter
          0.4 m/s, exposure 1/500 s; settled cover 0.9·clip(2s − 1, 0, 1) on
          roadside and shoulders; haze (visibility 450 m at s=0.5, 160 m at s=1)
-shadow   20·s roadside occluders per 100 m, 2·s overpasses per km, sun 120°
-         azimuth at 60 − 40·s degrees, E_sun/E_sky = (8, 6, 3); vehicle shadows
+shadow   the sun at 120° azimuth, 60 − 40·s degrees, E_sun/E_sky = s·(8, 6, 3);
+         every object of the world, vehicle and the ego casts its shadow
 glare    sun 0° azimuth (ahead on highway-env's straights) at 45 − 40·s degrees,
          E_sun/E_sky 6, dry roughness 0.35, wetness 0.5·s, veil 0.5 + 2.5·s deg²
 fog      visibility 2000·(30/2000)^s m (β_ext = 3.912/visibility), airlight 0.7

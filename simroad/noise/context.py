@@ -18,6 +18,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_finite_number, check_in_range
 from simroad.camera.geometry import CameraConfig, PinholeCamera
+from simroad.camera.mesh import Mesh
 from simroad.camera.render import VehicleBox
 from simroad.camera.world import IS_GROUND, SKY
 
@@ -73,6 +74,12 @@ class NoiseContext:
         Time since the previous frame in s, in (0, 1].
     time_s : float
         Time since the episode start in s, >= 0.
+    face_id : ndarray, int32 (H, W), optional
+        Index into ``faces`` of the object face each pixel sees, -1 where it sees
+        no face (ground, sky). Given together with ``faces``.
+    faces : Mesh, optional
+        The faces the renderer drew (:class:`simroad.camera.mesh.Mesh`); the shadow
+        model shades them by their orientation to the sun.
     """
 
     camera: PinholeCamera | None = None
@@ -83,6 +90,8 @@ class NoiseContext:
     ego_yaw_rate: float = 0.0
     dt: float = 1.0 / 15.0
     time_s: float = 0.0
+    face_id: np.ndarray | None = None
+    faces: Mesh | None = None
 
     def __post_init__(self) -> None:
         if self.camera is not None and not isinstance(self.camera, PinholeCamera):
@@ -107,11 +116,34 @@ class NoiseContext:
         if t < 0:
             raise SimroadError(f"time_s: expected a time >= 0 s, got {t:g}.")
         object.__setattr__(self, "time_s", t)
+        _check_faces(self.face_id, self.faces)
+
+
+def _check_faces(face_id: Any, faces: Any) -> None:
+    if (face_id is None) != (faces is None):
+        given, missing = ("face_id", "faces") if faces is None else ("faces", "face_id")
+        raise SimroadError(
+            f"{missing}: {given} was given without {missing}; pass both (the renderer's Frame has them) or neither."
+        )
+    if faces is None:
+        return
+    if not isinstance(faces, Mesh):
+        raise SimroadError(f"faces: expected a simroad.camera.mesh.Mesh, got {type(faces).__name__}.")
+    _check_plane("face_id", face_id, kinds="i")
+    if face_id.size and (int(face_id.max()) >= len(faces) or int(face_id.min()) < -1):
+        raise SimroadError(
+            f"face_id: expected indices in -1..{len(faces) - 1} (the faces of the mesh), "
+            f"got values in {int(face_id.min())}..{int(face_id.max())}."
+        )
 
 
 def _check_plane(name: str, arr: Any, *, kinds: str) -> None:
     if not isinstance(arr, np.ndarray) or arr.ndim != 2 or arr.dtype.kind not in kinds:
-        what = "float (H, W) array in metres" if kinds == "f" else "uint8 (H, W) array of material codes"
+        what = {
+            "f": "float (H, W) array in metres",
+            "u": "uint8 (H, W) array of material codes",
+            "i": "int32 (H, W) array of face indices",
+        }[kinds]
         got = f"{arr.dtype} array of shape {arr.shape}" if isinstance(arr, np.ndarray) else type(arr).__name__
         raise SimroadError(f"{name}: expected a {what}, got {got}.")
     if kinds == "f" and np.isnan(arr).any():
@@ -197,7 +229,7 @@ def resolve_frame(
             f"image's {w}x{h} (width x height). Pass the camera that rendered the frame."
         )
     depth = cam.depth if ctx.depth is None else ctx.depth
-    for name, arr in (("depth", depth), ("material", ctx.material)):
+    for name, arr in (("depth", depth), ("material", ctx.material), ("face_id", ctx.face_id)):
         if arr is not None and arr.shape != (h, w):
             raise SimroadError(f"{name}: expected shape {(h, w)} to match the image, got {arr.shape}.")
     depth = depth.astype(np.float32, copy=False)

@@ -1,47 +1,63 @@
-"""Shadow: world-anchored cast shadows of roadside occluders and vehicles.
+"""Shadow: the sun comes out and every solid of the world casts its shadow.
 
 Physics
 -------
-A lit ground texel of albedo ρ has radiance ``ρ·(E_sun·cos θ + E_sky)``, a shadowed
-one ``ρ·E_sky`` (θ the sun's zenith angle, so ``cos θ = sin e`` on flat ground). The
-rendered frame is the lit scene, so a shadow scales linear radiance by
-``k_c = 1 / (r_c·sin e + 1)`` per channel with ``r_c = E_sun/E_sky``. The clear sky is
-blue, so ``r`` is smallest in blue: shadows keep relatively more blue — lower value,
-higher saturation, higher blue/red ratio — which is the premise of the paper's NDI
-shadow filter (eq. 13). Default ``r = (8, 6, 3)`` for (R, G, B), within the measured
-3–9 of clear days. Fog dims the sun (``E_sun·exp(−τ/sin e)``) and with it the shadows.
+Clear weather is a bright overcast day (:mod:`simroad.camera.lighting`); this model
+brings out the sun. A lit ground texel of albedo ρ has radiance
+``ρ·(E_sun·cos θ + E_sky)``, a shadowed one ``ρ·E_sky`` (θ the sun's zenith angle, so
+``cos θ = sin e`` on flat ground). The rendered frame stands for the lit scene, so a
+shadow scales linear radiance by ``k_c = 1 / (r_c·sin e + 1)`` per channel with
+``r_c = E_sun/E_sky``. The clear sky is blue, so ``r`` is smallest in blue: shadows
+keep relatively more blue — lower value, higher saturation, higher blue/red ratio —
+which is the premise of the paper's NDI shadow filter (eq. 13). Fog dims the sun
+(``E_sun·exp(−τ/sin e)``) and with it the shadows.
+
+Faces of objects (when the frame carries ``face_id`` and ``faces``): a face lit
+under the overcast sky has ``ρ·E_sky·F(n)`` with ``F`` the sky-view irradiance
+factor (:func:`simroad.camera.lighting.face_irradiance`); in the sun it gets
+``ρ·(E_sun·max(0, n·ŝ) + E_sky·F(n))``. Normalised like the ground (the frame is the
+lit horizontal scene), a face pixel is scaled by
+``(r_c·max(0, n·ŝ)/F(n) + 1) / (r_c·sin e + 1)``: a face turned away from the sun
+(``n·ŝ <= 0``) is in its own shadow and darkened by exactly the ground's ``k_c``; a
+face turned towards a low sun brightens (a sunlit wall is brighter than the road).
 
 Geometry
 --------
-Occluders (trees, poles, buildings, overpasses) are placed in world coordinates
-beside the road, lazily per world cell with a seed derived from the episode seed and
-the cell index (:mod:`simroad.noise._occluders`); vehicles and the ego cast box
-shadows. Shadow polygons lie on the ground, so they are world-anchored: a shadow
-stays where it is as the car drives over it. Each frame, the polygons near the view
-are clipped to the half-plane ahead of the camera, projected with the camera's
-ground homography, filled, and blurred by their penumbra (the sun's 0.53° disc seen
-from the occluding edge), converted to pixels at the polygon's distance.
-The occluders themselves are not drawn (the renderer has no roadside objects).
+Casters are the world's solids (``world.objects(box)``: trees, poles, signs,
+buildings, walls, guard rails, overpasses; :mod:`simroad.camera.scenery`), the other
+vehicles' boxes and the ego's. The shadow of a convex solid is the hull of its
+vertices projected along the sun onto the ground (:mod:`simroad.noise._occluders`),
+so every shadow has its caster in the world. Shadows lie on the ground, so they are
+world-anchored. Each frame, the polygons near the view are clipped to the
+half-plane ahead of the camera, projected with the camera's ground homography,
+filled, and blurred by their penumbra (the sun's 0.53° disc seen from the caster's
+top), converted to pixels at the polygon's distance. Without a world (or a world
+without scenery, e.g. the gallery scene) only vehicles and the ego cast shadows.
+
+Limitation: shadows fall on the ground only, not on other objects (a tree's shadow
+does not darken a wall behind it); an object's own faces are shaded by their
+orientation to the sun only.
 
 Sun direction convention: ``sun_azimuth_deg`` is the world heading of the sun's
 horizontal direction (0 = world +x, 90 = world +y), like a vehicle heading.
 
-Severity mapping (:meth:`ShadowParams.from_severity`), s in (0, 1]::
+Severity mapping (:meth:`ShadowParams.from_severity`), s in [0, 1] — severity sets
+the sun, the casters are whatever the world holds::
 
-    occluders_per_100m = 20 · s                # trees 55 %, poles 30 %, buildings 15 %
-    overpasses_per_km  = 2 · s
     sun_elevation_deg  = 60 − 40 · s           # lower sun, longer shadows
+    sun_sky_ratio_rgb  = s · (8, 6, 3)         # stronger sun: ~1 at s = 0.15, (8, 6, 3) at 1
     sun_azimuth_deg    = 120                   # behind-right of a car heading world +x
-    sun_sky_ratio_rgb  = (8, 6, 3)
     vehicle and ego shadows on
 
-s = 0: no shadows at all (vehicle shadows off too).
+s = 0: no sun (``r = 0``), the frame is unchanged. ``r = (8, 6, 3)`` lies within the
+measured 3–9 of clear days. The former ``occluders_per_100m``, ``overpasses_per_km``
+and ``cell_m`` are gone: how much stands beside the road is the world's
+(``RoadCamConfig.scenery``).
 """
 
 from __future__ import annotations
 
 import math
-from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar
@@ -50,16 +66,20 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
+from simroad.camera.lighting import face_irradiance
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
-from simroad.noise._occluders import Occluders, RoadIndex, Shadows, place_cell, prism_shadows
+from simroad.noise._occluders import Shadows, mesh_shadows, prism_shadows
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params
 
-__all__ = ["ShadowModel", "ShadowParams", "rasterize_shadows", "shadow_factor"]
+__all__ = ["FULL_SUN_SKY_RATIO", "ShadowModel", "ShadowParams", "face_sun_factor", "rasterize_shadows", "shadow_factor"]
 
 _NEAR_M = 0.5
 _KERNELS = np.array([1, 3, 5, 9, 15])
-_MAX_HEIGHT_M = 16.0
+_MAX_HEIGHT_M = 25.0  # tallest caster considered (m): how far a shadow may reach
+_GATHER_M = 50.0  # the casters are gathered for a box snapped to this grid, m
+#: ``E_sun / E_sky`` (R, G, B) of severity 1: a clear day's sun.
+FULL_SUN_SKY_RATIO = (8.0, 6.0, 3.0)
 EGO_SIZE_M = (5.0, 2.0, 1.5)  # length, width, height of the ego's box
 
 
@@ -69,9 +89,24 @@ def shadow_factor(sun_sky_ratio_rgb, elevation_rad: float, sun_transmittance: fl
     return 1.0 / (r * sun_transmittance * math.sin(elevation_rad) + 1.0)
 
 
+def face_sun_factor(
+    normals: np.ndarray, sun: tuple[float, float], sun_sky_ratio_rgb, sun_transmittance: float = 1.0
+) -> np.ndarray:
+    """Per-face, per-channel factor on the rendered (overcast-lit) radiance, (F, 3)
+    float32: ``(r·t·max(0, n·ŝ)/F(n) + 1) / (r·t·sin e + 1)`` (module docstring);
+    ``normals`` (F, 3) world unit normals, ``sun = (azimuth, elevation)`` in rad."""
+    az, el = sun
+    s = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
+    n = np.asarray(normals, dtype=float).reshape(-1, 3)
+    cos_i = np.maximum(n @ s, 0.0)
+    sky = face_irradiance(n[:, 2]).astype(float)
+    r = np.asarray(sun_sky_ratio_rgb, dtype=float) * sun_transmittance
+    return ((r[None, :] * (cos_i / sky)[:, None] + 1.0) / (r * math.sin(el) + 1.0)).astype(np.float32)
+
+
 @dataclass(frozen=True)
 class ShadowParams(Params):
-    """Physical parameters of the sun and the shadow casters.
+    """Physical parameters of the sun (the casters are the world's objects).
 
     Parameters
     ----------
@@ -80,17 +115,12 @@ class ShadowParams(Params):
     sun_elevation_deg : float
         Sun elevation above the horizon, degrees.
     sun_sky_ratio_rgb : tuple of 3 float
-        ``E_sun / E_sky`` per channel (R, G, B).
-    occluders_per_100m : float
-        Roadside trees, poles and buildings per 100 m of road.
-    overpasses_per_km : float
-        Overpasses per km of road.
+        ``E_sun / E_sky`` per channel (R, G, B); ``(0, 0, 0)`` is no sun (the
+        identity), :data:`FULL_SUN_SKY_RATIO` a clear day's.
     vehicle_shadows, ego_shadow : bool
         Shadows of the other vehicles and of the ego's own box.
     sun_diameter_deg : float
         Angular diameter of the sun, degrees (sets the penumbra).
-    cell_m : float
-        Side of the world cells occluders are placed in, m.
 
     Each field's valid range is declared once, in ``LIMITS`` (listed under Notes).
     """
@@ -98,43 +128,27 @@ class ShadowParams(Params):
     LIMITS: ClassVar[Mapping[str, Limit]] = {
         "sun_azimuth_deg": SUN_AZIMUTH_LIMIT,
         "sun_elevation_deg": Limit(2.0, 89.0, "degrees"),
-        "sun_sky_ratio_rgb": Limit(0.5, 50.0, length=3),
-        "occluders_per_100m": Limit(0.0, 100.0),
-        "overpasses_per_km": Limit(0.0, 20.0),
+        "sun_sky_ratio_rgb": Limit(0.0, 50.0, length=3),
         "sun_diameter_deg": Limit(0.0, 5.0, "degrees"),
-        "cell_m": Limit(10.0, 500.0, "m"),
     }
 
     sun_azimuth_deg: float | None = 120.0
     sun_elevation_deg: float = 35.0
-    sun_sky_ratio_rgb: tuple[float, float, float] = (8.0, 6.0, 3.0)
-    occluders_per_100m: float = 8.0
-    overpasses_per_km: float = 0.0
+    sun_sky_ratio_rgb: tuple[float, float, float] = FULL_SUN_SKY_RATIO
     vehicle_shadows: bool = True
     ego_shadow: bool = True
     sun_diameter_deg: float = 0.53
-    cell_m: float = 40.0
 
     @classmethod
     def from_severity(cls, severity: float) -> ShadowParams:
         """Documented severity mapping (see the module docstring)."""
         s = check_in_range("severity", severity, 0.0, 1.0)
-        return cls(
-            sun_elevation_deg=60.0 - 40.0 * s,
-            occluders_per_100m=20.0 * s,
-            overpasses_per_km=2.0 * s,
-            vehicle_shadows=s > 0,
-            ego_shadow=s > 0,
-        )
+        r = tuple(s * c for c in FULL_SUN_SKY_RATIO)
+        return cls(sun_elevation_deg=60.0 - 40.0 * s, sun_sky_ratio_rgb=(r[0], r[1], r[2]))
 
     @property
     def is_identity(self) -> bool:
-        return (
-            self.occluders_per_100m == 0.0
-            and self.overpasses_per_km == 0.0
-            and not self.vehicle_shadows
-            and not self.ego_shadow
-        )
+        return all(c == 0.0 for c in self.sun_sky_ratio_rgb)
 
 
 def _kernel(px: np.ndarray) -> np.ndarray:
@@ -204,7 +218,8 @@ def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M) -> n
 
 
 class ShadowModel(NoiseModel):
-    """Cast shadows of roadside occluders and vehicles (see the module docstring)."""
+    """The sun and the cast shadows of the world's objects and the vehicles (see the
+    module docstring)."""
 
     name = "shadow"
     params_type = ShadowParams
@@ -213,42 +228,13 @@ class ShadowModel(NoiseModel):
     def _on_reset(self) -> None:
         p = self.params
         self.sun = draw_sun(self._require_reset(), p.sun_azimuth_deg, p.sun_elevation_deg)
-        w = self._world
-        self._road = (
-            RoadIndex(None)
-            if w is None
-            else RoadIndex(w.shapes, getattr(getattr(w, "palette", None), "shoulder_width_m", 1.0))
-        )
-        self._cells: OrderedDict[tuple[int, int], Shadows] = OrderedDict()
         self._coverage: np.ndarray | None = None
         self._gathered: tuple = (None, Shadows.empty())
 
     def set_sun(self, azimuth_rad: float, elevation_rad: float) -> None:
         """Use another model's sun (the weather shares one sun between models)."""
         self.sun = (float(azimuth_rad), float(elevation_rad))
-        self._cells.clear()
         self._gathered = (None, Shadows.empty())
-
-    def occluders(self, i: int, j: int) -> Occluders:
-        """The occluders of world cell (i, j): a pure function of the episode seed and
-        the cell index (not of the order cells are visited)."""
-        p = self.params
-        rng = np.random.default_rng([self._seed, i + 2**31, j + 2**31])
-        box = (i * p.cell_m, j * p.cell_m, (i + 1) * p.cell_m, (j + 1) * p.cell_m)
-        return place_cell(rng, box, self._road, per_100m=p.occluders_per_100m, overpass_per_km=p.overpasses_per_km)
-
-    def cell(self, i: int, j: int) -> Shadows:
-        """Shadows cast by the occluders of world cell (i, j) (cached)."""
-        key = (i, j)
-        hit = self._cells.get(key)
-        if hit is not None:
-            self._cells.move_to_end(key)
-            return hit
-        out = self.occluders(i, j).shadows(self.sun, math.radians(self.params.sun_diameter_deg))
-        self._cells[key] = out
-        if len(self._cells) > 4096:
-            self._cells.popitem(last=False)
-        return out
 
     def _vehicle_shadows(self, state: FrameState) -> Shadows:
         p = self.params
@@ -269,19 +255,31 @@ class ShadowModel(NoiseModel):
             [b[0] for b in boxes], np.zeros(len(boxes)), z1, self.sun, math.radians(p.sun_diameter_deg)
         )
 
+    def caster_box(self, state: FrameState) -> tuple[float, float, float, float]:
+        """The world box (m) whose objects may shadow the view: the view's ground
+        footprint grown by the longest shadow, snapped outwards to a 50 m grid."""
+        fp = np.column_stack(ego_to_world(view_geometry(state.camera).footprint, state.camera.pose))
+        reach = min(100.0, _MAX_HEIGHT_M / math.tan(self.sun[1]))
+        lo = np.floor((fp.min(axis=0) - reach) / _GATHER_M) * _GATHER_M
+        hi = np.ceil((fp.max(axis=0) + reach) / _GATHER_M) * _GATHER_M
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
     def world_shadows(self, state: FrameState) -> Shadows:
-        """All shadow polygons that may fall into the current view (world metres)."""
-        p = self.params
+        """All shadow polygons that may fall into the current view (world metres);
+        ``caster`` indexes the solids of ``world.objects(*caster_box(state))``."""
+        box = self.caster_box(state)
+        if self._gathered[0] != box:
+            objects = getattr(self._world, "objects", None)
+            mesh = objects(*box) if objects is not None else None
+            cast = (
+                Shadows.empty()
+                if mesh is None
+                else mesh_shadows(mesh, self.sun, math.radians(self.params.sun_diameter_deg))
+            )
+            self._gathered = (box, cast)
+        sh = Shadows.concat([self._gathered[1], self._vehicle_shadows(state)])
         fp = np.column_stack(ego_to_world(view_geometry(state.camera).footprint, state.camera.pose))
         lo, hi = fp.min(axis=0), fp.max(axis=0)
-        reach = min(100.0, _MAX_HEIGHT_M / math.tan(self.sun[1]))
-        i0, j0 = np.floor((lo - reach) / p.cell_m).astype(int)
-        i1, j1 = np.floor((hi + reach) / p.cell_m).astype(int)
-        key = (i0, i1, j0, j1)
-        if self._gathered[0] != key:
-            cells = [self.cell(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]
-            self._gathered = (key, Shadows.concat(cells))
-        sh = Shadows.concat([self._gathered[1], self._vehicle_shadows(state)])
         b = sh.bbox
         return sh.select((b[:, 2] >= lo[0]) & (b[:, 0] <= hi[0]) & (b[:, 3] >= lo[1]) & (b[:, 1] <= hi[1]))
 
@@ -301,3 +299,10 @@ class ShadowModel(NoiseModel):
         c = cover[r]
         factor = cv2.merge([1.0 - c * np.float32(1.0 - kc) for kc in k])
         state.lin[r] *= factor
+        ctx = state.ctx
+        if ctx.face_id is not None and ctx.faces is not None and len(ctx.faces):
+            fid = ctx.face_id
+            on = fid >= 0
+            if on.any():
+                per_face = face_sun_factor(ctx.faces.normal, self.sun, self.params.sun_sky_ratio_rgb, t_sun)
+                state.lin[on] *= per_face[fid[on]]

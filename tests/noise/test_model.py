@@ -98,7 +98,7 @@ def test_optional_and_tuple_limits():
     with pytest.raises(SimroadError, match=r"sun_sky_ratio_rgb: expected 3 values, got 2"):
         ShadowParams(sun_sky_ratio_rgb=(4.0, 3.0))
     with pytest.raises(SimroadError, match=r"sun_sky_ratio_rgb\[1\]"):
-        ShadowParams(sun_sky_ratio_rgb=(4.0, 0.1, 2.0))
+        ShadowParams(sun_sky_ratio_rgb=(4.0, -0.1, 2.0))
     assert ShadowParams(ego_shadow=0).ego_shadow is False
 
 

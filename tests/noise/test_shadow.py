@@ -1,4 +1,4 @@
-"""Shadow: sky-lit colour, world anchoring, order-free lazy placement beside the road."""
+"""Shadow: sky-lit colour, world anchoring, the severity sets the sun, faces shaded by it."""
 
 from __future__ import annotations
 
@@ -8,11 +8,13 @@ import cv2
 import numpy as np
 import pytest
 
+from simroad._validation import SimroadError
 from simroad.camera import ASPHALT, VehicleBox
-from simroad.camera.lanes import lane_signed_distance
+from simroad.camera.mesh import Mesh
+from simroad.camera.scenery import Scenery
 from simroad.noise import ShadowModel, ShadowParams, make_weather
 from simroad.noise._occluders import prism_shadows
-from simroad.noise.shadow import shadow_factor
+from simroad.noise.shadow import FULL_SUN_SKY_RATIO, face_sun_factor, shadow_factor
 
 
 def test_shadow_factor_by_hand_and_bluest_in_blue():
@@ -38,7 +40,7 @@ def _hsv_stats(rgb: np.ndarray, sel: np.ndarray) -> tuple[float, float, float]:
 
 def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
     # The sun low behind the car: the ego's own shadow falls on the road ahead.
-    p = ShadowParams(sun_azimuth_deg=180.0, sun_elevation_deg=15.0, occluders_per_100m=0.0, vehicle_shadows=False)
+    p = ShadowParams(sun_azimuth_deg=180.0, sun_elevation_deg=15.0, vehicle_shadows=False)
     w = make_weather("shadow", severity=0.5, params={"shadow": p})
     w.reset(0, world=scene.world)
     out, masks = w.apply(scene.frame.rgb, scene.ctx())
@@ -53,10 +55,17 @@ def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
     assert v_s < 0.75 * v_0 and s_s > s_0 + 10 and br_s > 1.2 * br_0
 
 
-def test_shadows_stay_on_the_ground_while_the_car_moves(scene):
-    p = ShadowParams(
-        sun_elevation_deg=30.0, occluders_per_100m=40.0, overpasses_per_km=5.0, vehicle_shadows=False, ego_shadow=False
-    )
+@pytest.fixture
+def scenery(scene):
+    """The sample scene's world with dense scenery (detached again afterwards)."""
+    scene.world.scenery = Scenery(scene.world.shapes, 11, density=4.0, shoulder_m=scene.world.palette.shoulder_width_m)
+    yield scene
+    scene.world.scenery = None
+
+
+def test_shadows_stay_on_the_ground_while_the_car_moves(scenery):
+    scene = scenery
+    p = ShadowParams(sun_elevation_deg=30.0, vehicle_shadows=False, ego_shadow=False)
     model = ShadowModel(p)
     model.reset(11, world=scene.world)
     views = []
@@ -87,41 +96,85 @@ def test_shadows_stay_on_the_ground_while_the_car_moves(scene):
     assert agree.mean() > 0.95
 
 
-def test_cell_contents_do_not_depend_on_the_visiting_order(scene):
-    p = ShadowParams(occluders_per_100m=30.0, overpasses_per_km=10.0)
-    cells = [(i, j) for i in range(-1, 4) for j in range(-2, 1)]
-    a, b = ShadowModel(p), ShadowModel(p)
-    a.reset(5, world=scene.world)
-    b.reset(5, world=scene.world)
-    sa = {c: a.cell(*c) for c in cells}
-    sb = {c: b.cell(*c) for c in reversed(cells)}
-    assert sum(len(s.penumbra_m) for s in sa.values()) > 20
-    for c in cells:
-        np.testing.assert_array_equal(sa[c].polys, sb[c].polys)
+def test_severity_sets_the_sun_and_zero_is_the_identity(scene):
+    p0, p1 = ShadowParams.from_severity(0.0), ShadowParams.from_severity(1.0)
+    assert p0.is_identity and not p1.is_identity
+    assert p1.sun_elevation_deg == pytest.approx(20.0) and p1.sun_sky_ratio_rgb == pytest.approx(FULL_SUN_SKY_RATIO)
+    half = ShadowParams.from_severity(0.5)
+    assert half.sun_elevation_deg == pytest.approx(40.0)
+    assert half.sun_sky_ratio_rgb == pytest.approx(tuple(0.5 * c for c in FULL_SUN_SKY_RATIO))
+    w = make_weather("shadow", severity=0.0)
+    w.reset(0, world=scene.world)
+    out, masks = w.apply(scene.frame.rgb, scene.ctx())
+    np.testing.assert_array_equal(out, scene.frame.rgb)
+    assert not masks["shadow"].any()
 
 
-def test_occluders_stand_beside_the_road_not_on_it(scene):
-    m = ShadowModel(ShadowParams(occluders_per_100m=40.0))
-    m.reset(2, world=scene.world)
-    x0, y0, x1, y1 = scene.world.bounds()
-    cell = m.params.cell_m
-    shoulder = scene.world.palette.shoulder_width_m
-    lanes = [s.lane for s in scene.world.shapes]
-    kinds = []
-    for i in range(math.floor(x0 / cell), math.floor(x1 / cell) + 1):
-        for j in range(math.floor(y0 / cell), math.floor(y1 / cell) + 1):
-            occ = m.occluders(i, j)
-            for kind, fp in zip(occ.kinds, occ.footprints):
-                kinds.append(kind)
-                pts = fp if kind == "building" else fp.mean(axis=0, keepdims=True)
-                for lane in lanes:
-                    d = lane_signed_distance(lane, pts[:, 0], pts[:, 1])
-                    assert (d <= -shoulder + 0.05).all(), (kind, pts)
-    assert {"tree", "pole", "building"} <= set(kinds)
+@pytest.mark.parametrize("gone", ["occluders_per_100m", "overpasses_per_km", "cell_m"])
+def test_the_caster_density_is_no_longer_a_shadow_parameter(gone):
+    with pytest.raises(TypeError, match=gone):
+        ShadowParams(**{gone: 1.0})
+
+
+def test_without_scenery_only_vehicles_and_the_ego_cast(scene):
+    p = ShadowParams(sun_azimuth_deg=180.0, sun_elevation_deg=15.0, vehicle_shadows=False, ego_shadow=False)
+    w = make_weather("shadow", params={"shadow": p})
+    w.reset(0, world=scene.world)
+    _, masks = w.apply(scene.frame.rgb, scene.ctx())
+    assert not masks["shadow"].any()
+
+
+def test_face_shading_by_hand():
+    # Sun from world +x at 30 degrees; a wall facing +x, one facing -x, a roof.
+    sun = (0.0, math.radians(30.0))
+    normals = np.array([[1.0, 0, 0], [-1.0, 0, 0], [0, 0, 1.0]])
+    f = face_sun_factor(normals, sun, (8.0, 6.0, 3.0))
+    k = shadow_factor((8.0, 6.0, 3.0), sun[1])
+    np.testing.assert_allclose(f[1], k, rtol=1e-6)  # turned away: its own shadow, the ground's factor
+    np.testing.assert_allclose(f[2], 1.0, rtol=1e-6)  # a roof is lit like the ground
+    sky = 0.5 + 0.15 * 0.5  # face_irradiance of a vertical face
+    np.testing.assert_allclose(f[0], (np.array([8.0, 6.0, 3.0]) * math.cos(sun[1]) / sky + 1) * k, rtol=1e-5)
+    assert (f[0] > 1).all()
+
+
+def _square_face(x: float, normal_x: float) -> Mesh:
+    v = np.zeros((1, 16, 3))
+    v[0, :4] = [[x, -1, 0], [x, 1, 0], [x, 1, 2], [x, -1, 2]]
+    v[0, 4:] = v[0, 3]
+    return Mesh(v, np.array([4], np.int32), np.full((1, 3), 0.3, np.float32), np.array([12], np.uint8),
+                np.array([[normal_x, 0.0, 0.0]]), np.zeros(1, np.int64))  # fmt: skip
+
+
+@pytest.mark.parametrize("normal_x", [1.0, -1.0])
+def test_object_faces_are_shaded_by_their_orientation(scene, normal_x):
+    faces = Mesh.concat([_square_face(10.0, normal_x)])
+    face_id = np.full(scene.frame.material.shape, -1, dtype=np.int32)
+    face_id[10:30, 100:140] = 0  # a patch of sky pixels standing for the face
+    p = ShadowParams(sun_azimuth_deg=0.0, sun_elevation_deg=30.0, vehicle_shadows=False, ego_shadow=False)
+    w = make_weather("shadow", params={"shadow": p})
+    w.reset(0, world=scene.world)
+    plain, _ = w.apply(scene.frame.rgb, scene.ctx())
+    out, masks = w.apply(scene.frame.rgb, scene.ctx(face_id=face_id, faces=faces))
+    patch = face_id == 0
+    before, after = scene.frame.rgb[patch].astype(float), out[patch].astype(float)
+    assert masks["shadow"][patch].all()
+    assert (after.mean() > before.mean()) == (normal_x > 0)
+    np.testing.assert_array_equal(out[~patch], plain[~patch])
+
+
+def test_face_id_and_faces_are_checked(scene):
+    faces = Mesh.concat([_square_face(10.0, 1.0)])
+    bad = np.full(scene.frame.material.shape, 3, dtype=np.int32)
+    with pytest.raises(SimroadError, match="face_id"):
+        scene.ctx(face_id=bad, faces=faces)
+    with pytest.raises(SimroadError, match="faces"):
+        scene.ctx(face_id=np.zeros(scene.frame.material.shape, np.int32))
+    with pytest.raises(SimroadError, match="face_id"):
+        scene.ctx(face_id=np.zeros(scene.frame.material.shape, np.float32), faces=faces)
 
 
 def test_vehicles_cast_shadows_that_move_with_them(scene):
-    p = ShadowParams(sun_azimuth_deg=90.0, sun_elevation_deg=25.0, occluders_per_100m=0.0, ego_shadow=False)
+    p = ShadowParams(sun_azimuth_deg=90.0, sun_elevation_deg=25.0, ego_shadow=False)
     out = []
     for x in (95.0, 99.0):
         w = make_weather("shadow", severity=0.5, params={"shadow": p})

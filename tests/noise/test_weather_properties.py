@@ -32,7 +32,9 @@ def test_same_seed_gives_identical_frames_and_masks(spec, scene):
             np.testing.assert_array_equal(masks_a[name], masks_b[name])
 
 
-@pytest.mark.parametrize("spec", ["rain", "snow", "shadow"])
+# Not "shadow": its casters are the world's scenery (seeded by the world), and the
+# sample scene's world has none; only a drawn sun azimuth would differ by seed.
+@pytest.mark.parametrize("spec", ["rain", "snow"])
 def test_another_seed_gives_another_frame(spec, scene):
     ((a, _),) = _run(spec, scene, seed=1, frames=1)
     ((b, _),) = _run(spec, scene, seed=2, frames=1)
