@@ -28,7 +28,7 @@ def periodic_noise(size: int, scale_px: float, rng: np.random.Generator) -> np.n
     White noise low-passed in the Fourier domain with a Gaussian of standard
     deviation ``scale_px`` texels, so the tile wraps seamlessly.
     """
-    white = rng.normal(0.0, 1.0, size=(size, size))
+    white = rng.standard_normal((size, size), dtype=np.float32)
     fy = np.fft.fftfreq(size)[:, None]
     fx = np.fft.rfftfreq(size)[None, :]
     lowpass = np.exp(-(fx**2 + fy**2) * (scale_px**2) * 2.0 * np.pi**2)
@@ -39,8 +39,12 @@ def periodic_noise(size: int, scale_px: float, rng: np.random.Generator) -> np.n
 
 
 def _white(size: int, rng: np.random.Generator, channels: int = 1) -> np.ndarray:
+    """Unit-variance zero-mean per-texel noise (uniform: three times faster than normal)."""
     shape = (size, size) if channels == 1 else (size, size, channels)
-    return rng.standard_normal(shape, dtype=np.float32)
+    u = rng.random(shape, dtype=np.float32)
+    u -= np.float32(0.5)
+    u *= np.float32(math.sqrt(12.0))
+    return u
 
 
 def _smoothstep(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
