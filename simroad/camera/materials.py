@@ -48,7 +48,7 @@ _OKE = "Oke 1987, Boundary Layer Climates, Table 1.1"
 ALBEDO: dict[str, AlbedoRange] = {
     # Pavements: asphalt brightens and turns brown as the binder wears off the
     # aggregate (reflectance rising from blue to red), concrete darkens with soiling.
-    "asphalt_fresh": AlbedoRange((0.040, 0.040, 0.038), (0.065, 0.063, 0.058), 0.02, _POMERANTZ + "; " + _HEROLD),
+    "asphalt_fresh": AlbedoRange((0.042, 0.040, 0.037), (0.067, 0.064, 0.059), 0.02, _POMERANTZ + "; " + _HEROLD),
     "asphalt_aged": AlbedoRange(
         (0.10, 0.085, 0.071), (0.21, 0.178, 0.148), 0.035, _POMERANTZ + "; " + _HEROLD + "; " + _HOLLAN
     ),

@@ -29,7 +29,7 @@ SHOULDER_KINDS = ("gravel", "dirt", "concrete")
 PROFILES = ("rural", "urban")
 
 # Probability that a world's road is aged asphalt (most roads in service are).
-_P_AGED = 0.75
+_P_AGED = 0.8
 # Roadside kind weights of an urban street (a verge beyond the sidewalk).
 _URBAN_ROADSIDE_P = {"grass": 0.35, "dirt": 0.1, "gravel": 0.15, "pavement": 0.4}
 

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range
+from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.lighting import NOMINAL_EXPOSURE
 
@@ -224,24 +224,45 @@ def camera_directions(camera: PinholeCamera, heading: float | None = None) -> np
     return np.stack([wx, wy, -ego[..., 2]], axis=-1)
 
 
-def sky_image(camera: PinholeCamera, sky: SkySpec, *, heading: float | None = None) -> np.ndarray:
+def sky_image(
+    camera: PinholeCamera,
+    condition: str | SkySpec,
+    sun: Sun | None = None,
+    *,
+    heading: float | None = None,
+    brightness: float = 1.0,
+) -> np.ndarray:
     """The sky as the camera sees it: float32 (H, W, 3) sRGB 0-255.
 
     Parameters
     ----------
     camera : PinholeCamera
-    sky : SkySpec
-        Condition, sun and brightness (e.g. from :func:`draw_sky`; the shadow or
-        glare noise may pass a ``clear`` sky with its own sun).
+    condition : str or SkySpec
+        ``overcast``, ``hazy`` or ``clear`` (with ``sun``), or a whole
+        :class:`SkySpec` (e.g. from :func:`draw_sky`). The shadow or glare noise may
+        pass ``"clear"`` and its own sun when the sun comes out.
+    sun : Sun, optional
+        Required with a condition name.
     heading : float, optional
         Camera heading (radians) the sky is seen from; the camera's current pose by
         default.
+    brightness : float
+        Factor on the radiance (with a condition name).
 
     Every pixel gets a value (the ground is drawn over it); rays below the horizon
     take the horizon's radiance. Values above white saturate at 255.
     """
     from simroad.noise.radiometry import linear_to_srgb  # here: simroad.noise imports simroad.camera
 
+    if isinstance(condition, SkySpec):
+        sky = condition
+    else:
+        if not isinstance(sun, Sun):
+            raise SimroadError(
+                f"sun: expected a simroad.camera.sky.Sun with a condition name, got {type(sun).__name__}. "
+                "Pass sun=Sun(azimuth_deg, elevation_deg) or a SkySpec."
+            )
+        sky = SkySpec(condition, sun, brightness)
     d = camera_directions(camera, heading)
     d[..., 2] = np.maximum(d[..., 2], 0.0)
     lin = sky_radiance(

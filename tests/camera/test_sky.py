@@ -100,3 +100,15 @@ def test_sky_image_and_draws_are_reproducible_and_validated():
         Sun(0.0, 95.0)
     with pytest.raises(SimroadError, match="brightness"):
         SkySpec("clear", Sun(0.0, 30.0), brightness=-1.0)
+
+
+def test_sky_image_takes_a_condition_and_a_sun_and_clear_is_bluer_than_overcast():
+    cam = PinholeCamera(CameraConfig(width=64, height=36))
+    sun = Sun(180.0, 35.0)  # behind the camera at heading 0
+    clear = sky_image(cam, "clear", sun, heading=0.0)
+    over = sky_image(cam, "overcast", sun, heading=0.0)
+    top = (slice(0, 5), slice(None))
+    assert (clear[top][..., 2] - clear[top][..., 0]).mean() > 40  # blue sky
+    assert abs((over[top][..., 2] - over[top][..., 0]).mean()) < 15  # neutral
+    with pytest.raises(SimroadError, match="sun"):
+        sky_image(cam, "clear")
