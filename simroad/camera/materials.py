@@ -63,7 +63,7 @@ ALBEDO: dict[str, AlbedoRange] = {
     "grass_dry": AlbedoRange((0.12, 0.11, 0.06), (0.24, 0.21, 0.11), 0.06, _ECOSTRESS + " dry grass"),
     "soil": AlbedoRange((0.12, 0.095, 0.07), (0.28, 0.22, 0.16), 0.05, _ECOSTRESS + " soils; " + _OKE + " dry soil"),
     "soil_wet": AlbedoRange((0.06, 0.048, 0.036), (0.13, 0.10, 0.075), 0.05, _OKE + " wet soil 0.05-0.15"),
-    "gravel": AlbedoRange((0.14, 0.135, 0.12), (0.30, 0.29, 0.26), 0.04, _ECOSTRESS + " granite/limestone chips"),
+    "gravel": AlbedoRange((0.14, 0.135, 0.12), (0.30, 0.29, 0.26), 0.02, _ECOSTRESS + " granite/limestone chips"),
     "snow": AlbedoRange((0.80, 0.83, 0.86), (0.93, 0.95, 0.97), 0.01, "Warren 1982; Oke 1987: fresh snow 0.8-0.95"),
     "snow_old": AlbedoRange((0.45, 0.46, 0.47), (0.70, 0.71, 0.72), 0.02, "Oke 1987: old snow 0.4-0.7"),
     "foliage": AlbedoRange((0.03, 0.05, 0.02), (0.07, 0.11, 0.04), 0.08, _ECOSTRESS + " broadleaf/conifer"),
