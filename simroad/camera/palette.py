@@ -1,8 +1,12 @@
-"""Surface palettes and world-anchored periodic textures.
+"""One world's ground materials: which surfaces, their measured albedos, band widths.
 
-Several roadside materials (grass, dirt, gravel, pavement) and asphalt tones are
-drawn per episode, so that colour alone does not separate road from off-road.
-Textures are periodic tiles, so any window of the world samples them consistently.
+A palette is drawn per world from the episode's generator: the asphalt (fresh or
+aged, with its repair patches), the paint, the roadside kind and, for the cross-
+section, either a rural shoulder (gravel, soil or concrete) or an urban kerb and
+sidewalk. Albedos come from :mod:`simroad.camera.materials` (linear RGB); the world
+raster turns them into textured sRGB texels (:mod:`simroad.camera.textures`).
+Nothing keeps the road darker or greyer than its surroundings: real roadsides can be
+as grey and as dark as the road.
 """
 
 from __future__ import annotations
@@ -11,121 +15,141 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = [
-    "ROADSIDE_KINDS",
-    "Palette",
-    "draw_palette",
-    "make_texture",
-]
+from simroad._validation import check_choice
+from simroad.camera.materials import draw_albedo
 
-#: Roadside materials a palette can use.
+__all__ = ["PROFILES", "ROADSIDE_KINDS", "SHOULDER_KINDS", "Palette", "draw_palette"]
+
+#: Roadside materials a palette can use (``dirt`` is dry soil, ``pavement`` concrete).
 ROADSIDE_KINDS = ("grass", "dirt", "gravel", "pavement")
+#: Rural shoulder materials.
+SHOULDER_KINDS = ("gravel", "dirt", "concrete")
+#: Cross-sections: ``rural`` road + shoulder + roadside; ``urban`` road + kerb +
+#: sidewalk + roadside.
+PROFILES = ("rural", "urban")
 
-# Mean RGB colours (0-255) and their per-episode jitter.
-_ROADSIDE_RGB = {
-    "grass": ((86, 118, 58), 18),
-    "dirt": ((132, 108, 80), 16),
-    "gravel": ((128, 122, 112), 14),
-    "pavement": ((150, 148, 142), 14),
-}
-_SHOULDER_RGB = {"gravel": ((118, 112, 102), 12), "dirt": ((124, 102, 78), 12)}
+# Probability that a world's road is aged asphalt (most roads in service are).
+_P_AGED = 0.8
+# Roadside kind weights of an urban street (a verge beyond the sidewalk).
+_URBAN_ROADSIDE_P = {"grass": 0.35, "dirt": 0.1, "gravel": 0.15, "pavement": 0.4}
 
 
 @dataclass(frozen=True)
 class Palette:
-    """Colours (RGB, 0-255) and texture strength of one episode's world."""
+    """The ground materials of one world.
 
+    Albedos are linear RGB float triples in [0, 1] (see :mod:`simroad.camera.materials`);
+    widths are in metres measured outward from the road edge.
+
+    Attributes
+    ----------
+    profile : str
+        ``rural`` or ``urban`` (see :data:`PROFILES`).
+    roadside, shoulder : str
+        Roadside kind (:data:`ROADSIDE_KINDS`) and shoulder kind (:data:`SHOULDER_KINDS`).
+    asphalt_age : float
+        0 = freshly laid, 1 = old and worn; sets the asphalt between its fresh and
+        aged albedo and the amount of patches, cracks and wheel-track polish.
+    shoulder_width_m : float
+        Rural shoulder width (0 for ``urban``).
+    kerb_width_m, sidewalk_width_m : float
+        Urban kerb and sidewalk widths (0 for ``rural``).
+    """
+
+    profile: str
     roadside: str
-    roadside_rgb: tuple[int, int, int]
-    shoulder_rgb: tuple[int, int, int]
-    asphalt_rgb: tuple[int, int, int]
-    marking_rgb: tuple[int, int, int]
+    shoulder: str
+    asphalt: tuple[float, float, float]
+    asphalt_patch: tuple[float, float, float]
+    marking: tuple[float, float, float]
+    shoulder_albedo: tuple[float, float, float]
+    roadside_albedo: tuple[float, float, float]
+    roadside_alt: tuple[float, float, float]  # patches in the roadside (dry grass, wet soil, weeds)
+    kerb: tuple[float, float, float]
+    sidewalk: tuple[float, float, float]
+    asphalt_age: float
+    marking_wear: float  # 0 = fresh paint, 1 = mostly worn off
     shoulder_width_m: float
-    grain: float  # standard deviation of the texture in colour units
+    kerb_width_m: float = 0.0
+    sidewalk_width_m: float = 0.0
+
+    @property
+    def verge_width_m(self) -> float:
+        """Width (m) of the bands between the road edge and the roadside."""
+        return self.shoulder_width_m + self.kerb_width_m + self.sidewalk_width_m
 
 
-def _rgb(values: np.ndarray) -> tuple[int, int, int]:
-    """Three colour values (0-255) as an ``(r, g, b)`` tuple of ints (truncated)."""
-    r, g, b = (int(v) for v in values)
+def _t(a: np.ndarray) -> tuple[float, float, float]:
+    r, g, b = (float(v) for v in a)
     return (r, g, b)
 
 
-def _jitter(rgb: tuple[int, int, int], amount: float, rng: np.random.Generator) -> tuple[int, int, int]:
-    base = np.asarray(rgb, dtype=float)
-    shift = rng.normal(0.0, amount) + rng.normal(0.0, amount / 3.0, size=3)
-    return _rgb(np.clip(base + shift, 0, 255))
+def _roadside_albedos(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Main and patch albedo of a roadside kind."""
+    if kind == "grass":
+        return draw_albedo("grass", rng), draw_albedo("grass_dry" if rng.random() < 0.6 else "soil", rng)
+    if kind == "dirt":
+        return draw_albedo("soil", rng), draw_albedo("soil_wet", rng)
+    if kind == "gravel":
+        return draw_albedo("gravel", rng), draw_albedo("grass", rng)  # weeds
+    return draw_albedo("concrete_aged" if rng.random() < 0.6 else "concrete", rng), draw_albedo("concrete_aged", rng)
 
 
-#: Minimum luma difference (0-255) between asphalt and a shoulder or a non-green
-#: roadside. Asphalt's albedo is about 0.05-0.10, gravel, concrete and dry soil about
-#: 0.2-0.3: real asphalt is always markedly darker than what borders it.
-MIN_LUMA_MARGIN = 35.0
+def _shoulder_albedo(kind: str, rng: np.random.Generator) -> np.ndarray:
+    return draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
 
 
-def _luma(rgb) -> float:
-    r, g, b = (float(v) for v in rgb)
-    return 0.299 * r + 0.587 * g + 0.114 * b
+def draw_palette(rng: np.random.Generator, roadside: str | None = None, *, profile: str = "rural") -> Palette:
+    """Draw the ground materials of one world from ``rng``.
 
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The world's generator.
+    roadside : str, optional
+        Force the roadside kind (one of :data:`ROADSIDE_KINDS`); drawn when omitted.
+    profile : str
+        ``rural`` (shoulder 0.5-2.5 m, then the roadside) or ``urban`` (kerb
+        0.15-0.3 m and sidewalk 1.5-4 m, then the roadside).
 
-def _brighter_than(rgb: tuple[int, int, int], floor: float) -> tuple[int, int, int]:
-    """Lift ``rgb`` uniformly until its luma reaches ``floor``."""
-    lift = max(0.0, floor - _luma(rgb))
-    return _rgb(np.clip(np.asarray(rgb, dtype=float) + lift, 0, 255))
-
-
-def draw_palette(rng: np.random.Generator, roadside: str | None = None) -> Palette:
-    """Draw a palette for one episode from ``rng``; ``roadside`` forces the kind.
-
-    Asphalt is drawn dark grey (luma ~50-85); the shoulder, and a gravel, dirt or
-    pavement roadside, are kept at least :data:`MIN_LUMA_MARGIN` brighter (grass is
-    told apart by its hue).
+    Returns
+    -------
+    Palette
     """
-    kind = roadside if roadside is not None else str(rng.choice(ROADSIDE_KINDS))
-    rs_rgb, rs_j = _ROADSIDE_RGB[kind]
-    sh_kind = str(rng.choice(tuple(_SHOULDER_RGB)))
-    sh_rgb, sh_j = _SHOULDER_RGB[sh_kind]
-    grey = rng.uniform(50, 85)
-    tint = rng.normal(0.0, 3.0, size=3)
-    asphalt = _rgb(np.clip(grey + tint, 0, 255))
-    floor = _luma(asphalt) + MIN_LUMA_MARGIN
-    roadside_rgb = _jitter(rs_rgb, rs_j, rng)
-    if kind != "grass":
-        roadside_rgb = _brighter_than(roadside_rgb, floor)
+    check_choice("profile", profile, PROFILES)
+    if roadside is not None:
+        check_choice("roadside", roadside, ROADSIDE_KINDS)
+    aged = rng.random() < _P_AGED
+    age = float(rng.uniform(0.45, 1.0) if aged else rng.uniform(0.0, 0.3))
+    fresh, old = draw_albedo("asphalt_fresh", rng), draw_albedo("asphalt_aged", rng)
+    asphalt = fresh + min(1.0, age * 1.25) * (old - fresh)
+    patch = draw_albedo("asphalt_fresh", rng) if rng.random() < 0.7 else draw_albedo("asphalt_aged", rng)
+    if profile == "urban":
+        p = np.array([_URBAN_ROADSIDE_P[k] for k in ROADSIDE_KINDS])
+        kind = roadside or str(rng.choice(ROADSIDE_KINDS, p=p / p.sum()))
+    else:
+        kind = roadside or str(rng.choice(ROADSIDE_KINDS))
+    rs, rs_alt = _roadside_albedos(kind, rng)
+    shoulder = str(rng.choice(SHOULDER_KINDS))
+    sh = _shoulder_albedo(shoulder, rng)
+    kerb = draw_albedo("kerb_stone", rng)
+    sidewalk = draw_albedo("concrete_aged" if rng.random() < 0.7 else "concrete", rng)
+    urban = profile == "urban"
     return Palette(
+        profile=profile,
         roadside=kind,
-        roadside_rgb=roadside_rgb,
-        shoulder_rgb=_brighter_than(_jitter(sh_rgb, sh_j, rng), floor),
-        asphalt_rgb=asphalt,
-        marking_rgb=_jitter((228, 228, 222), 6, rng),
-        shoulder_width_m=float(rng.uniform(0.8, 2.0)),
-        grain=float(rng.uniform(5.0, 9.0)),
+        shoulder=shoulder,
+        asphalt=_t(asphalt),
+        asphalt_patch=_t(patch),
+        marking=_t(draw_albedo("marking", rng)),
+        shoulder_albedo=_t(sh),
+        roadside_albedo=_t(rs),
+        roadside_alt=_t(rs_alt),
+        kerb=_t(kerb),
+        sidewalk=_t(sidewalk),
+        asphalt_age=age,
+        marking_wear=float(rng.uniform(0.0, 0.6) * (0.4 + age)),
+        shoulder_width_m=0.0 if urban else float(rng.uniform(0.5, 2.5)),
+        kerb_width_m=float(rng.uniform(0.15, 0.3)) if urban else 0.0,
+        sidewalk_width_m=float(rng.uniform(1.5, 4.0)) if urban else 0.0,
     )
-
-
-def make_texture(
-    rgb: tuple[int, int, int],
-    size: int,
-    rng: np.random.Generator,
-    *,
-    grain: float,
-    blotch: float,
-    blotch_scale_px: float,
-) -> np.ndarray:
-    """A periodic (size, size, 3) float32 texture around ``rgb``.
-
-    Fine grain (white noise) plus low-frequency blotches, both filtered in the
-    Fourier domain so that the tile wraps seamlessly.
-    """
-    fine = rng.normal(0.0, 1.0, size=(size, size)).astype(np.float32)
-    white = rng.normal(0.0, 1.0, size=(size, size))
-    f = np.fft.fftfreq(size)
-    fx, fy = np.meshgrid(f, f)
-    lowpass = np.exp(-((fx**2 + fy**2) * (blotch_scale_px**2) * 2.0 * np.pi**2))
-    lowpass[0, 0] = 0.0  # zero mean: the texture stays centred on its palette colour
-    coarse = np.real(np.fft.ifft2(np.fft.fft2(white) * lowpass))
-    coarse /= coarse.std() + 1e-9
-    lum = grain * fine + blotch * coarse.astype(np.float32)
-    tex = np.asarray(rgb, dtype=np.float32)[None, None, :] + lum[..., None]
-    # A faint per-channel variation keeps textures from being perfectly grey.
-    tex += rng.normal(0.0, grain * 0.25, size=(size, size, 3)).astype(np.float32)
-    return tex

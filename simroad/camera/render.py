@@ -21,6 +21,7 @@ import numpy as np
 from simroad.camera._painter import MeshPainter, clip_near, face_colours
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
+from simroad.camera.sky import draw_sky, sky_image
 from simroad.camera.vehicles import vehicles_mesh
 from simroad.camera.world import SKY, WorldRaster
 
@@ -111,16 +112,10 @@ class Frame:
 
 
 def _sky_image(camera: PinholeCamera, rng: np.random.Generator) -> np.ndarray:
-    c = camera.config
-    zenith = np.array([95, 140, 200], dtype=np.float32) + rng.normal(0, 8, 3).astype(np.float32)
-    horizon = np.array([200, 212, 225], dtype=np.float32) + rng.normal(0, 5, 3).astype(np.float32)
-    rows = np.arange(c.height, dtype=np.float32)
-    # Elevation angle of each row's central ray, 0 at the horizon.
-    fy = camera.K[1, 1]
-    elev = np.degrees(np.arctan((camera.horizon_row - rows) / fy))
-    tt = np.clip(elev / 25.0, 0.0, 1.0)[:, None]
-    col = horizon[None, :] * (1 - tt) + zenith[None, :] * tt
-    return np.repeat(col[:, None, :], c.width, axis=1).astype(np.float32)
+    """The world's sky (float32 (H, W, 3) sRGB 0-255), drawn from ``rng``: overcast or
+    hazy with a plausible sun (:func:`simroad.camera.sky.draw_sky`), seen at heading 0
+    so that it does not depend on the camera's previous pose."""
+    return sky_image(camera, draw_sky(rng), heading=0.0)
 
 
 class CameraRenderer:

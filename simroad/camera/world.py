@@ -1,4 +1,4 @@
-"""The ground-plane world raster: road surface, markings, shoulders, roadside.
+"""The ground-plane world raster: road, markings, shoulders or kerbs and sidewalks, roadside.
 
 Built once per episode from highway-env's road network, using each lane's own
 geometry (``lane.position(s, lateral)``), never its colours. The world is cut into
@@ -18,15 +18,18 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
 import cv2
 import numpy as np
 
+from simroad._validation import SimroadError
 from simroad.camera.lanes import lane_signed_distance, supports_vectorised
 from simroad.camera.mesh import Mesh
-from simroad.camera.palette import Palette, draw_palette, make_texture
+from simroad.camera.palette import Palette, draw_palette
+from simroad.camera.textures import ground_textures, wear_factor
 
 __all__ = [
     "ASPHALT",
@@ -99,8 +102,37 @@ MARKING_WIDTH_M = 0.15
 DASH_LENGTH_M = 3.0
 DASH_PERIOD_M = 12.0
 _TEX_SIZE = 512
+_WEAR_RES = 20  # wear lookup steps per metre of distance to the lane edge
+_WEAR_STEPS = 80
 _SHIFT = 4  # fixed-point bits for cv2.fillPoly
 _SCALE = 1 << _SHIFT
+
+
+def _overlaps(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
+    return a[0] <= b[2] and a[2] >= b[0] and a[1] <= b[3] and a[3] >= b[1]
+
+
+def _check_polygons(name: str, polys: object) -> list[np.ndarray]:
+    """Validate a sequence of world polygons, each (N >= 3, 2) finite metres."""
+    if isinstance(polys, np.ndarray) or not isinstance(polys, Sequence):
+        raise SimroadError(
+            f"{name}: expected a sequence (list or tuple) of (N, 2) polygon arrays, got {type(polys).__name__}. "
+            "Wrap a single polygon in a list."
+        )
+    out = []
+    for k, p in enumerate(polys):
+        try:
+            a = np.asarray(p, dtype=float) if not isinstance(p, str) else np.zeros(0)
+        except (TypeError, ValueError):
+            a = np.zeros(0)
+        if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 3:
+            raise SimroadError(
+                f"{name}[{k}]: expected a polygon of shape (N, 2) with N >= 3 world points (m), got shape {a.shape}."
+            )
+        if not np.all(np.isfinite(a)):
+            raise SimroadError(f"{name}[{k}]: expected finite coordinates, got NaN or infinity.")
+        out.append(a)
+    return out
 
 
 @dataclass
@@ -233,6 +265,9 @@ class WorldRaster:
         Tile side in texels.
     max_tiles : int
         Size of the tile cache.
+    extra_markings : sequence of ndarray (N, 2)
+        World polygons (m) painted as :data:`MARKING` where they lie on the road:
+        zebra crossings, stop lines. Paint off the road is ignored.
     """
 
     def __init__(
@@ -244,28 +279,20 @@ class WorldRaster:
         palette: Palette | None = None,
         tile_px: int = 256,
         max_tiles: int = 400,
+        extra_markings: Sequence[np.ndarray] = (),
     ) -> None:
         self.texel_m = float(texel_m)
         self.tile_px = int(tile_px)
         self.max_tiles = int(max_tiles)
+        self.extra_markings = _check_polygons("extra_markings", extra_markings)
+        self._extra_bbox = [(*m.min(axis=0), *m.max(axis=0)) for m in self.extra_markings]
         self.palette = palette or draw_palette(rng)
-        self.shapes = lane_shapes(network, self.palette.shoulder_width_m)
-        p = self.palette
-        blotch_px = 2.0 / self.texel_m
-        self._tex = {
-            ROADSIDE: make_texture(
-                p.roadside_rgb, _TEX_SIZE, rng, grain=p.grain * 1.6, blotch=14.0, blotch_scale_px=blotch_px * 3
-            ),
-            SHOULDER: make_texture(
-                p.shoulder_rgb, _TEX_SIZE, rng, grain=p.grain * 1.3, blotch=8.0, blotch_scale_px=blotch_px
-            ),
-            ASPHALT: make_texture(
-                p.asphalt_rgb, _TEX_SIZE, rng, grain=p.grain, blotch=5.0, blotch_scale_px=blotch_px * 2
-            ),
-            MARKING: make_texture(
-                p.marking_rgb, _TEX_SIZE, rng, grain=p.grain * 0.6, blotch=4.0, blotch_scale_px=blotch_px
-            ),
-        }
+        self.shapes = lane_shapes(network, self.palette.verge_width_m)
+        codes = {"roadside": ROADSIDE, "shoulder": SHOULDER, "asphalt": ASPHALT, "marking": MARKING}
+        codes |= {"kerb": KERB, "sidewalk": SIDEWALK}
+        tex = ground_textures(self.palette, _TEX_SIZE, self.texel_m, rng)
+        self._tex = {codes[name]: t for name, t in tex.items()}
+        self._wear_lut = wear_factor(np.arange(_WEAR_STEPS, dtype=np.float32) / _WEAR_RES, self.palette.asphalt_age)
         self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._windows: dict[str, Window] = {}
         #: What stands on the ground (trees, poles, buildings, ...): any object with
@@ -304,27 +331,42 @@ class WorldRaster:
             s for s in self.shapes if s.bbox[0] <= x1 and s.bbox[2] >= x0 and s.bbox[1] <= y1 and s.bbox[3] >= y0
         ]
         sdf = self._tile_sdf(visible, x0, y0)
-        material = np.full((T, T), ROADSIDE, dtype=np.uint8)
-        material[sdf >= -self.palette.shoulder_width_m] = SHOULDER
+        material = self._bands(sdf)
         road = sdf >= 0.0
-        material[road] = ASPHALT
         paint = np.zeros((T, T), dtype=np.uint8)
-        for s in visible:
-            for m in s.markings:
-                cv2.fillPoly(paint, [self._fixed(m, x0, y0)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+        polys = [m for s in visible for m in s.markings]
+        polys += [m for m, b in zip(self.extra_markings, self._extra_bbox) if _overlaps(b, (x0, y0, x1, y1))]
+        for m in polys:
+            cv2.fillPoly(paint, [self._fixed(m, x0, y0)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
         material[(paint > 0) & road] = MARKING
 
         ti, tj = (j * T) % _TEX_SIZE, (i * T) % _TEX_SIZE
         sl = (slice(ti, ti + T), slice(tj, tj + T))
         rgb = self._tex[ROADSIDE][sl].copy()
-        for code in (SHOULDER, ASPHALT, MARKING):
+        for code, tex in self._tex.items():
             sel = material == code
-            if sel.any():
-                rgb[sel] = self._tex[code][sl][sel]
+            if code != ROADSIDE and sel.any():
+                rgb[sel] = tex[sl][sel]
+        asphalt = material == ASPHALT
+        if asphalt.any():
+            k = np.minimum((sdf[asphalt] * _WEAR_RES).astype(np.int32), _WEAR_STEPS - 1)
+            rgb[asphalt] = np.clip(rgb[asphalt] * self._wear_lut[k][:, None], 0, 255).astype(np.uint8)
         rgba = np.empty((T, T, 4), dtype=np.uint8)
-        rgba[..., :3] = np.clip(rgb, 0, 255)
+        rgba[..., :3] = rgb
         rgba[..., 3] = np.clip(np.rint(128.0 + 254.0 * sdf), 0, 255)
         return rgba, material
+
+    def _bands(self, sdf: np.ndarray) -> np.ndarray:
+        """Ground material of every texel from its signed distance to the road (m)."""
+        p = self.palette
+        material = np.full(sdf.shape, ROADSIDE, dtype=np.uint8)
+        if p.profile == "urban":
+            material[sdf >= -(p.kerb_width_m + p.sidewalk_width_m)] = SIDEWALK
+            material[sdf >= -p.kerb_width_m] = KERB
+        else:
+            material[sdf >= -p.shoulder_width_m] = SHOULDER
+        material[sdf >= 0.0] = ASPHALT
+        return material
 
     def _fixed(self, poly: np.ndarray, x0: float, y0: float) -> np.ndarray:
         pts = (poly - (x0, y0)) / self.texel_m - 0.5

@@ -1,30 +1,104 @@
-"""World palettes: varied, but asphalt always darker than what borders it."""
+"""World palettes and ground textures: measured albedos, both cross-sections, no forced contrast."""
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
+import pytest
 
-from simroad.camera.palette import MIN_LUMA_MARGIN, ROADSIDE_KINDS, _luma, draw_palette, make_texture
+from simroad._validation import SimroadError
+from simroad.camera.materials import ALBEDO
+from simroad.camera.palette import PROFILES, ROADSIDE_KINDS, SHOULDER_KINDS, draw_palette
+from simroad.camera.textures import ground_textures, periodic_noise, wear_factor
 
 
-def test_asphalt_is_darker_than_shoulder_and_non_green_roadside():
-    kinds = set()
-    for seed in range(300):
+def _grey(rgb: np.ndarray) -> np.ndarray:
+    hsv = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2HSV).astype(float) / 255.0
+    return (hsv[..., 1] < 0.15) & (hsv[..., 2] > 0.15) & (hsv[..., 2] < 0.85)
+
+
+def test_every_kind_and_both_ages_are_drawn_and_albedos_lie_in_measured_ranges():
+    kinds, shoulders, ages = set(), set(), []
+    lo = np.asarray(ALBEDO["asphalt_fresh"].lo) * 0.85
+    hi = np.asarray(ALBEDO["asphalt_aged"].hi) * 1.15
+    for seed in range(200):
         p = draw_palette(np.random.default_rng(seed))
         kinds.add(p.roadside)
-        assert _luma(p.shoulder_rgb) >= _luma(p.asphalt_rgb) + MIN_LUMA_MARGIN - 1
-        if p.roadside != "grass":
-            assert _luma(p.roadside_rgb) >= _luma(p.asphalt_rgb) + MIN_LUMA_MARGIN - 1
-    assert kinds == set(ROADSIDE_KINDS)
+        shoulders.add(p.shoulder)
+        ages.append(p.asphalt_age)
+        assert np.all(np.asarray(p.asphalt) >= lo) and np.all(np.asarray(p.asphalt) <= hi)
+        assert 0.5 <= p.shoulder_width_m <= 2.5 and p.kerb_width_m == 0.0 and p.sidewalk_width_m == 0.0
+    assert kinds == set(ROADSIDE_KINDS) and shoulders == set(SHOULDER_KINDS)
+    assert min(ages) < 0.3 and max(ages) > 0.9
+
+
+def test_roadside_can_be_as_dark_as_the_road():
+    """No artificial luma margin: some worlds have a roadside darker than the asphalt."""
+    darker = 0
+    for seed in range(200):
+        p = draw_palette(np.random.default_rng(seed))
+        darker += np.mean(p.roadside_albedo) <= np.mean(p.asphalt)
+    assert darker > 10
+
+
+def test_urban_profile_has_kerb_and_sidewalk_of_measured_widths():
+    for seed in range(50):
+        p = draw_palette(np.random.default_rng(seed), profile="urban")
+        assert p.profile == "urban" and p.shoulder_width_m == 0.0
+        assert 0.15 <= p.kerb_width_m <= 0.3 and 1.5 <= p.sidewalk_width_m <= 4.0
+        assert p.verge_width_m == pytest.approx(p.kerb_width_m + p.sidewalk_width_m)
 
 
 def test_forced_roadside_kind_and_determinism():
-    a = draw_palette(np.random.default_rng(3), roadside="gravel")
-    b = draw_palette(np.random.default_rng(3), roadside="gravel")
+    a = draw_palette(np.random.default_rng(3), roadside="gravel", profile="urban")
+    b = draw_palette(np.random.default_rng(3), roadside="gravel", profile="urban")
     assert a == b and a.roadside == "gravel"
 
 
-def test_texture_is_periodic_and_centred_on_its_colour():
-    tex = make_texture((100, 120, 80), 64, np.random.default_rng(0), grain=6.0, blotch=5.0, blotch_scale_px=8.0)
-    assert tex.shape == (64, 64, 3)
-    np.testing.assert_allclose(tex.reshape(-1, 3).mean(axis=0), (100, 120, 80), atol=3.0)
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [({"roadside": "lawn"}, "roadside"), ({"profile": "city"}, "profile"), ({"profile": 3}, "profile")],
+)
+def test_bad_arguments_are_refused_by_name(kwargs, name):
+    with pytest.raises(SimroadError, match=name):
+        draw_palette(np.random.default_rng(0), **kwargs)
+
+
+def test_periodic_noise_wraps_and_is_standardised():
+    n = periodic_noise(256, 4.0, np.random.default_rng(0))
+    assert n.dtype == np.float32 and abs(float(n.mean())) < 1e-3 and abs(float(n.std()) - 1.0) < 1e-3
+    seam = np.abs(n[:, 0] - n[:, -1]).mean()
+    inside = np.abs(np.diff(n, axis=1)).mean()
+    assert seam < 1.3 * inside
+
+
+@pytest.mark.parametrize("profile", PROFILES)
+def test_textures_are_srgb_of_their_albedos(profile):
+    rng = np.random.default_rng(1)
+    p = draw_palette(rng, roadside="pavement", profile=profile)
+    tex = ground_textures(p, 128, 0.1, rng)
+    names = {"asphalt", "marking", "roadside"} | ({"kerb", "sidewalk"} if profile == "urban" else {"shoulder"})
+    assert set(tex) == names
+    for t in tex.values():
+        assert t.dtype == np.uint8 and t.shape == (128, 128, 3)
+    # Mean texel ~ NOMINAL_EXPOSURE * albedo, gamma-encoded (within texture variation).
+    lin = (tex["roadside"].astype(float) / 255.0) ** 2.2 / 1.2
+    assert np.mean(lin) == pytest.approx(np.mean(p.roadside_albedo), rel=0.25)
+
+
+def test_aged_asphalt_is_not_perfectly_grey_and_concrete_roadside_is_grey():
+    road_grey, side_grey = [], []
+    for seed in range(12):
+        rng = np.random.default_rng(seed)
+        p = draw_palette(rng, roadside="pavement")
+        tex = ground_textures(p, 128, 0.1, rng)
+        road_grey.append(_grey(tex["asphalt"]).mean())
+        side_grey.append(_grey(tex["roadside"]).mean())
+    assert np.mean(road_grey) < 0.9  # warm aggregate shows through worn binder
+    assert np.mean(side_grey) > 0.8  # concrete is as grey as any road
+
+
+def test_wear_factor_is_identity_far_from_wheel_paths_and_darker_on_the_lane_centre():
+    f = wear_factor(np.array([0.0, 1.2, 2.0]), age=1.0)
+    assert f[0] == pytest.approx(1.0, abs=0.01)
+    assert f[1] > 1.0 > f[2]

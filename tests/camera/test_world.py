@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from highway_env.road.lane import LineType, PolyLaneFixedWidth, SineLane, StraightLane
 from highway_env.road.road import RoadNetwork
 
+from simroad._validation import SimroadError
 from simroad.camera import MARKING, ROADSIDE, SHOULDER, WorldRaster
 from simroad.camera.world import IS_ROAD
 
@@ -102,3 +104,54 @@ def test_poly_lane_is_rasterised_from_its_outline(rng):
     centre = np.column_stack([xs, 8 * np.sin(xs / 25)])
     lane = PolyLaneFixedWidth(centre.tolist(), width=4.0)
     assert _sdf_agrees_with_lane(lane, rng, tol_m=0.15) == 0  # texel-level for PolyLane
+
+
+def _urban_world(rng, **kwargs):
+    from simroad.camera.palette import draw_palette
+
+    net = RoadNetwork()
+    net.add_lane("a", "b", StraightLane([0, 0], [200, 0], width=4.0, line_types=(LineType.NONE, LineType.NONE)))
+    palette = draw_palette(rng, roadside="grass", profile="urban")
+    return WorldRaster(net, rng, texel_m=0.1, palette=palette, **kwargs), palette
+
+
+def test_urban_cross_section_is_road_kerb_sidewalk_roadside(rng):
+    from simroad.camera.world import ASPHALT, KERB, SIDEWALK
+
+    w, p = _urban_world(rng)
+    win = w.window(20.0, -12.0, 40.0, 12.0)
+    col = int((30.0 - win.x0) / win.texel_m)
+    ys = win.y0 + (np.arange(win.material.shape[0]) + 0.5) * win.texel_m
+    mat = win.material[:, col]
+    d = np.abs(ys) - 2.0  # distance beyond the road edge (m)
+    inner = (d > 0.06) & (d < p.kerb_width_m - 0.06)
+    walk = (d > p.kerb_width_m + 0.06) & (d < p.verge_width_m - 0.06)
+    assert np.all(mat[d < -0.06] == ASPHALT)
+    assert inner.any() and np.all(mat[inner] == KERB)
+    assert np.all(mat[walk] == SIDEWALK)
+    assert np.all(mat[(d > p.verge_width_m + 0.06) & (d < 8.0)] == ROADSIDE)
+    assert not np.any(mat == SHOULDER)
+
+
+def test_extra_markings_paint_only_the_road(rng):
+    zebra = [np.array([[50.0 + k, -5.0], [50.5 + k, -5.0], [50.5 + k, 5.0], [50.0 + k, 5.0]]) for k in range(4)]
+    w, _ = _urban_world(rng, extra_markings=zebra)
+    win = w.window(45.0, -8.0, 60.0, 8.0)
+    col = int((50.25 - win.x0) / win.texel_m)
+    ys = win.y0 + (np.arange(win.material.shape[0]) + 0.5) * win.texel_m
+    mat = win.material[:, col]
+    assert np.all(mat[np.abs(ys) < 1.9] == MARKING)
+    assert not np.any(mat[np.abs(ys) > 2.1] == MARKING)
+    gap = int((50.75 - win.x0) / win.texel_m)
+    assert not np.any(win.material[:, gap] == MARKING)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [np.zeros((4, 2)), [np.zeros((2, 2))], [np.zeros((4, 3))], [[[0, 0], [1, 0], [np.nan, 1]]], ["abc"], 5],
+)
+def test_bad_extra_markings_are_refused_by_name(rng, bad):
+    net = RoadNetwork()
+    net.add_lane("a", "b", StraightLane([0, 0], [50, 0], width=4.0))
+    with pytest.raises(SimroadError, match="extra_markings"):
+        WorldRaster(net, rng, extra_markings=bad)

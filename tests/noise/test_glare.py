@@ -31,7 +31,8 @@ def test_glare_grows_as_the_heading_turns_towards_a_low_sun_and_saturates(scene)
     for heading in headings:
         clean, out = _glare_at(scene, heading)
         added.append((srgb_to_linear(out) - srgb_to_linear(clean)).mean())
-        saturated.append((out == 255).all(axis=2).sum())
+        # pixels driven to white from well below it (the overcast sky itself is near white)
+        saturated.append(((out == 255).all(axis=2) & (clean.max(axis=2) < 200)).sum())
     assert added[0] == 0.0  # the sun behind the lens plane and its lobe out of view
     assert all(b > 1.3 * a for a, b in zip(added[1:4], added[2:5])), added  # grows as it nears the view
     assert added[-1] > 0.85 * max(added)  # and stays at its maximum (clipping) facing the sun

@@ -52,7 +52,9 @@ def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
     assert v_s < v_l and s_s > s_l + 10 and br_s > 1.2 * br_l
     # The same pixels, lit (input) and in shadow (output):
     v_0, s_0, br_0 = _hsv_stats(scene.frame.rgb, shade)
-    assert v_s < 0.75 * v_0 and s_s > s_0 + 10 and br_s > 1.2 * br_0
+    # (aged asphalt is warm, R/G ~ G/B ~ 1.2: the blue skylight first cancels that tint,
+    # so the saturation gain over the lit input is smaller than over neutral grey)
+    assert v_s < 0.75 * v_0 and s_s > s_0 + 5 and br_s > 1.2 * br_0
 
 
 @pytest.fixture
