@@ -320,7 +320,8 @@ class TownStreetEnv(AbstractEnv):
         for i in sorted(rng.choice(len(slots), size=count, replace=False)):
             index, lane, s = slots[i]
             jitter = float(rng.uniform(-0.6, 0.6))
-            lateral = float(rng.uniform(0.0, 0.25))  # parked close to the kerb (right of the strip's travel)
+            room = max(0.0, lane.width_at(0.0) / 2 - ParkedVehicle.WIDTH / 2 - 0.05)
+            lateral = float(rng.uniform(0.0, room))  # towards the kerb (right of the strip's travel)
             self.road.vehicles.append(ParkedVehicle(self.road, index, lane, s + jitter, lateral))
 
     def _reward(self, action: np.ndarray) -> float:
