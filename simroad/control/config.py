@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,6 +83,12 @@ class ControllerConfig:
         a road edge); the path is refitted without them.
     fit_rounds : int, in [1, 20]
         Fit / drop-outliers rounds of the path fit.
+    edge_steps_m : sequence of float, each in (0, 10] m
+        Widths by which a road edge may step outwards beside the lanes (kerb-side
+        parking strips in a town; empty elsewhere). Each seen edge then proposes the
+        ego-lane centre at its lane offset and at that offset plus each step; the
+        proposal nearest the previous path is taken, and centre points farther than
+        ``path_jump_max_m`` from it are always dropped (a junction's mouth).
     """
 
     lane_width_m: float = 3.5
@@ -112,6 +119,7 @@ class ControllerConfig:
     outlier_min_m: float = 0.5
     outlier_mad_factor: float = 3.0
     fit_rounds: int = 3
+    edge_steps_m: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         ranges: dict[str, tuple[float, float, str, bool]] = {
@@ -162,13 +170,26 @@ class ControllerConfig:
                 "Pass e.g. (5.0, 10.0, 20.0)."
             )
         object.__setattr__(self, "lookaheads_m", values)
+        steps = self.edge_steps_m
+        try:
+            widths = tuple(float(d) for d in steps)
+        except (TypeError, ValueError):
+            widths = (math.nan,)
+        if isinstance(steps, str) or not all(0.0 < d <= 10.0 for d in widths):
+            raise SimroadError(
+                f"edge_steps_m: expected a sequence of widths in (0, 10] m (empty for none), got {steps!r}. "
+                "Pass e.g. (2.3,) for kerb-side parking strips."
+            )
+        object.__setattr__(self, "edge_steps_m", widths)
 
     @classmethod
     def for_scenario(cls, scenario: ScenarioSpec, **overrides: Any) -> ControllerConfig:
-        """The defaults with the scenario's lane width and cruise speed (then ``overrides``)."""
+        """The defaults with the scenario's lane width, cruise speed and parking strip
+        width (``edge_steps_m``), then ``overrides``."""
         if not isinstance(scenario, ScenarioSpec):
             raise SimroadError(
                 f"scenario: expected a ScenarioSpec (simroad.envs.get_scenario(name)), got {scenario!r}."
             )
-        base = cls(lane_width_m=scenario.lane_width_m, target_speed_m_s=scenario.cruise_speed_m_s)
+        steps = (scenario.parking_width_m,) if scenario.parking_width_m > 0 else ()
+        base = cls(lane_width_m=scenario.lane_width_m, target_speed_m_s=scenario.cruise_speed_m_s, edge_steps_m=steps)
         return dataclasses.replace(base, **overrides) if overrides else base

@@ -184,18 +184,21 @@ class LaneEstimator:
                 self.lane_from_right = max(0, self.lanes - 1 - int(math.floor(dist / w)))
         k, n = self.lane_from_right, self.lanes
         pts = []
+        steps = (0.0, *self.config.edge_steps_m)
         if k is not None:
-            d = w / 2 + k * w
             for xi, yi, si in zip(x, right, sr):
                 if math.isfinite(yi):
                     norm = math.sqrt(1.0 + si * si)
-                    pts.append((xi + d * si / norm, yi - d / norm))  # left normal (s, -1)
+                    # left normal (s, -1); one proposal per possible outward step of the edge
+                    props = [(xi + d * si / norm, yi - d / norm) for d in (w / 2 + k * w + e for e in steps)]
+                    pts.append(self._nearest(props))
         if k is not None and n is not None and k < n:
-            d = w / 2 + (n - 1 - k) * w
             for xi, yi, si in zip(x, left, sl):
                 if math.isfinite(yi):
                     norm = math.sqrt(1.0 + si * si)
-                    pts.append((xi - d * si / norm, yi + d / norm))  # right normal (-s, 1)
+                    # right normal (-s, 1)
+                    props = [(xi - d * si / norm, yi + d / norm) for d in (w / 2 + (n - 1 - k) * w + e for e in steps)]
+                    pts.append(self._nearest(props))
         if not pts:  # no usable edge model: the road centre where both edges are seen
             pts = [
                 (xi, 0.5 * (ri + li)) for xi, ri, li in zip(x, right, left) if math.isfinite(ri) and math.isfinite(li)
@@ -205,9 +208,18 @@ class LaneEstimator:
         arr = np.asarray(sorted(pts))
         if self._prev_coeffs is not None:  # temporal consistency: the lane moves little per frame
             near = np.abs(arr[:, 1] - np.polyval(self._prev_coeffs, arr[:, 0])) < self.config.path_jump_max_m
-            if near.sum() >= 2:
-                arr = arr[near]
+            if near.sum() >= 2 or self.config.edge_steps_m:
+                arr = arr[near]  # with edge steps, a far point is a junction's mouth: never trusted
+        if not len(arr):
+            return np.zeros(0), np.zeros(0)
         return arr[:, 0], arr[:, 1]
+
+    def _nearest(self, props: list[tuple[float, float]]) -> tuple[float, float]:
+        """The proposed centre point nearest the previous path (the lane centre, 0, at first)."""
+        if len(props) == 1:
+            return props[0]
+        prev = self._prev_coeffs
+        return min(props, key=lambda p: abs(p[1] - (float(np.polyval(prev, p[0])) if prev is not None else 0.0)))
 
     def _fit(self, est: PathEstimate) -> np.ndarray:
         """Path Y(X) as quadratic coefficients (highest power first)."""

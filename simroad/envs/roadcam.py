@@ -147,8 +147,14 @@ class RoadCamEnv(gym.Env):
         # ahead across segment ends (IDM traffic and the time-to-collision use it).
         self._hw.road.neighbour_vehicles_connected_lanes = True
         world_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
-        palette = draw_palette(world_rng, roadside=self.config.roadside)
-        self.world = WorldRaster(self._hw.road.network, world_rng, texel_m=self.config.camera.texel_m, palette=palette)
+        palette = draw_palette(world_rng, roadside=self.config.roadside, profile=self.scenario.profile)
+        self.world = WorldRaster(
+            self._hw.road.network,
+            world_rng,
+            texel_m=self.config.camera.texel_m,
+            palette=palette,
+            extra_markings=getattr(self._hw, "crossing_polygons", ()),  # zebras and stop lines (town)
+        )
         self.renderer = CameraRenderer(self.camera, self.world, world_rng)
         # The world's last draw: the scenery seed (only the scenery shifts with it).
         scenery_seed = int(world_rng.integers(2**63 - 1))

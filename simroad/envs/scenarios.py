@@ -7,6 +7,10 @@
 ``winding``
     :class:`simroad.envs.winding.WindingRoadEnv`, a two-lane country road generated
     from the seed: straights and arcs, >= 1.5 km, radii >= ~43 m (lane centre).
+``town``
+    :class:`simroad.envs.town.TownStreetEnv`, a town street generated from the seed:
+    blocks of 60-120 m, junctions crossed straight on, parking strips with parked
+    cars, zebra crossings and stop lines; kerbs and sidewalks (``profile="urban"``).
 
 Each :class:`ScenarioSpec` holds the policy and simulation rates, the nominal lane
 width and cruise speed (the controller's map priors), the scored route, the traffic
@@ -31,6 +35,7 @@ from simroad._validation import SimroadError, check_choice, check_in_range, chec
 __all__ = [
     "OPEN_ROUTE_M",
     "POLICY_HZ",
+    "PROFILES",
     "SCENARIOS",
     "SCENARIO_NAMES",
     "SIMULATION_HZ",
@@ -45,6 +50,9 @@ POLICY_HZ = 5
 SIMULATION_HZ = 15
 #: Route length scored on open roads, in m.
 OPEN_ROUTE_M = 1000.0
+
+#: Ground profiles beside the road: verges (``rural``) or kerb and sidewalk (``urban``).
+PROFILES = ("rural", "urban")
 
 #: factory(spec, longitudinal, traffic, duration_s) -> highway-env environment.
 EnvFactory = Callable[["ScenarioSpec", bool, bool, float], AbstractEnv]
@@ -83,6 +91,13 @@ class ScenarioSpec:
     policy_hz, simulation_hz : int
         Policy (camera frame and action) and physics rates in Hz; ``simulation_hz``
         is a multiple of ``policy_hz``.
+    parking_width_m : float
+        Nominal width in m of the parking strips beside the kerb (0: none); the
+        controller's prior that a road edge may lie that much farther out.
+    profile : str
+        What lies beside the road (:data:`PROFILES`): ``"rural"`` verges (shoulder,
+        grass, dirt, ...) or ``"urban"`` kerbs and sidewalks; the world's palette and
+        scenery read it.
     """
 
     name: str
@@ -96,6 +111,8 @@ class ScenarioSpec:
     traffic_vehicles: Mapping[str, int] = field(default_factory=dict)
     policy_hz: int = POLICY_HZ
     simulation_hz: int = SIMULATION_HZ
+    parking_width_m: float = 0.0
+    profile: str = "rural"
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -112,6 +129,8 @@ class ScenarioSpec:
             raise SimroadError(
                 f"simulation_hz: expected a multiple of policy_hz={self.policy_hz} Hz, got {self.simulation_hz} Hz."
             )
+        check_in_range("parking_width_m", self.parking_width_m, 0.0, 10.0, unit="m")
+        check_choice("profile", self.profile, PROFILES)
         for key, count in self.traffic_vehicles.items():
             check_int_in_range(f"traffic_vehicles[{key!r}]", count, 0, 1000)
         object.__setattr__(self, "traffic_vehicles", MappingProxyType(dict(self.traffic_vehicles)))
@@ -161,6 +180,13 @@ def _winding(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: 
     return WindingRoadEnv(config={"lane_width": spec.lane_width_m, **config})
 
 
+def _town(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+    from simroad.envs.town import TownStreetEnv  # town reads its defaults from SCENARIOS: a real cycle
+
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+    return TownStreetEnv(config={"lane_width": spec.lane_width_m, "road_length": spec.route_m + 40.0, **config})
+
+
 #: Scenario name -> its spec (insertion order is the order of help texts and figures).
 SCENARIOS: dict[str, ScenarioSpec] = {
     "racetrack": ScenarioSpec(
@@ -190,6 +216,18 @@ SCENARIOS: dict[str, ScenarioSpec] = {
         cruise_speed_m_s=15.0,
         lanes_count=1,
         traffic_vehicles={"leading_vehicles": 1, "oncoming_vehicles": 3},
+    ),
+    "town": ScenarioSpec(
+        name="town",
+        summary="a town street with junctions, parked cars and crossings, generated from the seed",
+        factory=_town,
+        lane_width_m=3.25,
+        cruise_speed_m_s=12.0,
+        lanes_count=1,
+        route_m=600.0,
+        traffic_vehicles={"leading_vehicles": 1, "oncoming_vehicles": 4, "parked_vehicles": 40},
+        parking_width_m=2.3,
+        profile="urban",
     ),
 }
 

@@ -42,6 +42,7 @@ PINNED = {
     "outlier_min_m": 0.5,
     "outlier_mad_factor": 3.0,
     "fit_rounds": 3,
+    "edge_steps_m": (),
 }
 
 
@@ -87,7 +88,13 @@ def test_deprecated_scenario_control_is_computed_from_the_specs():
         "racetrack": {"lane_width_m": 5.0, "target_speed_m_s": 10.0},
         "highway": {"lane_width_m": 4.0, "target_speed_m_s": 25.0},
         "winding": {"lane_width_m": 3.5, "target_speed_m_s": 15.0},
+        "town": {"lane_width_m": 3.25, "target_speed_m_s": 12.0},
     }
+
+
+def test_parking_strips_become_edge_steps():
+    assert ControllerConfig.for_scenario(get_scenario("town")).edge_steps_m == (2.3,)
+    assert ControllerConfig.for_scenario(get_scenario("winding")).edge_steps_m == ()
 
 
 def test_mask_driver_takes_camera_and_config_explicitly():
