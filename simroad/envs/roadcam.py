@@ -162,10 +162,10 @@ class RoadCamEnv(gym.Env):
             self.world.scenery = Scenery(
                 self.world.shapes,
                 scenery_seed,
-                profile=getattr(self.scenario, "profile", "rural"),
+                profile=self.scenario.profile,
                 density=self.config.scenery,
                 shoulder_m=palette.shoulder_width_m,
-                sidewalk_m=getattr(palette, "sidewalk_width_m", 0.0),
+                sidewalk_m=palette.kerb_width_m + palette.sidewalk_width_m,
             )
         self._vehicle_rgb = {}
         self._colour_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
