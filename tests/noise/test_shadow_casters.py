@@ -2,8 +2,8 @@
 where the caster is in view and not hidden, the frame's ``material`` shows it.
 
 Over scenarios, seeds, frames along the route and sun positions. The geometric part
-runs on the world alone; the material part needs the renderer that paints the
-world's meshes (the objects painter: ``Frame.faces``) and is skipped without it.
+runs on the world alone; the material part on the frames the camera paints
+(``Frame.faces``, ``Frame.face_id``).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from simroad.camera.render import _clip_near
+from simroad.camera._painter import clip_near as _clip_near
 from simroad.control import autopilot_action
 from simroad.envs import RoadCamEnv
 from simroad.noise.context import FrameState, NoiseContext, resolve_frame
@@ -112,17 +112,14 @@ def _face_pixels(cam, poly3: np.ndarray, normal: np.ndarray, shape) -> tuple[np.
 
 @pytest.mark.parametrize(("scenario", "seed"), CASES[:3])
 def test_casters_in_view_are_in_the_material_map(scenario, seed):
-    """NEEDS THE OBJECTS PAINTER (Frame.faces): skipped until the camera draws meshes.
-
-    For every caster of a visible shadow and each of its faces turned to the camera,
+    """For every caster of a visible shadow and each of its faces turned to the camera,
     the face's pixels where nothing nearer is seen (the frame's depth is not below
     the face's own horizontal distance there, 1 % and 0.1 m of slack) must carry
     the caster's material code: 90 % of every face, 99 % of all pixels checked.
     """
     checked = good = total = 0
     for env, frame in _frames(scenario, seed, n=2):
-        if getattr(frame, "faces", None) is None:
-            pytest.skip("the camera does not paint the world's meshes yet (needs the objects painter)")
+        assert frame.faces is not None and frame.face_id is not None
         model = env.weather.models["shadow"]
         cam = env.camera
         cpos = np.array([*cam.position_world, cam.config.mount_height_m])
