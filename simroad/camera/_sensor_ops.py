@@ -130,7 +130,7 @@ def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m
 
 
 def radial_motion_blur(
-    lin: np.ndarray, scale: np.ndarray, *, cx: float, foe_row: float, max_step_px: float = 1.0
+    lin: np.ndarray, scale: np.ndarray, *, cx: float, foe_row: float, max_step_px: float = 2.0
 ) -> np.ndarray:
     """Box-blur each pixel along its flow line from the focus of expansion, in place.
 

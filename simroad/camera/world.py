@@ -334,23 +334,36 @@ class WorldRaster:
         material = self._bands(sdf)
         road = sdf >= 0.0
         paint = np.zeros((T, T), dtype=np.uint8)
+        cover = np.zeros((T, T), dtype=np.uint8)  # anti-aliased paint coverage, for the colour only
         polys = [m for s in visible for m in s.markings]
         polys += [m for m, b in zip(self.extra_markings, self._extra_bbox) if _overlaps(b, (x0, y0, x1, y1))]
         for m in polys:
-            cv2.fillPoly(paint, [self._fixed(m, x0, y0)], 1, lineType=cv2.LINE_8, shift=_SHIFT)
+            pts = [self._fixed(m, x0, y0)]
+            cv2.fillPoly(paint, pts, 1, lineType=cv2.LINE_8, shift=_SHIFT)
+            cv2.fillPoly(cover, pts, 255, lineType=cv2.LINE_AA, shift=_SHIFT)
         material[(paint > 0) & road] = MARKING
 
         ti, tj = (j * T) % _TEX_SIZE, (i * T) % _TEX_SIZE
         sl = (slice(ti, ti + T), slice(tj, tj + T))
+        # The ground under the paint first (paint is asphalt-coloured where worn) ...
+        under = np.where(material == MARKING, np.uint8(ASPHALT), material)
         rgb = self._tex[ROADSIDE][sl].copy()
         for code, tex in self._tex.items():
-            sel = material == code
-            if code != ROADSIDE and sel.any():
+            sel = under == code
+            if code not in (ROADSIDE, MARKING) and sel.any():
                 rgb[sel] = tex[sl][sel]
-        asphalt = material == ASPHALT
+        asphalt = under == ASPHALT
         if asphalt.any():
             k = np.minimum((sdf[asphalt] * _WEAR_RES).astype(np.int32), _WEAR_STEPS - 1)
             rgb[asphalt] = np.clip(rgb[asphalt] * self._wear_lut[k][:, None], 0, 255).astype(np.uint8)
+        # ... then the paint over it by its anti-aliased coverage: a 15 cm line is only
+        # 1-2 texels wide, and hard texel steps would show as jaggies up close.
+        painted = cover > 0
+        if painted.any():
+            a = (cover[painted].astype(np.float32) / 255.0)[:, None]
+            base = rgb[painted].astype(np.float32)
+            mark = self._tex[MARKING][sl][painted].astype(np.float32)
+            rgb[painted] = np.clip(base + a * (mark - base), 0, 255).astype(np.uint8)
         rgba = np.empty((T, T, 4), dtype=np.uint8)
         rgba[..., :3] = rgb
         rgba[..., 3] = np.clip(np.rint(128.0 + 254.0 * sdf), 0, 255)

@@ -174,6 +174,12 @@ class FrameState:
         (set by fog); the sun's irradiance is scaled by ``exp(-od / sin(elevation))``.
     water_film : float
         Fraction of the road under a smooth water film (set by rain).
+    sky_clear : float
+        How far the sky has cleared for the sun, in [0, 1] (set by the shadow and
+        glare models; 0 = the world's overcast sky).
+    unmasked : ndarray, bool, (H, W) or None
+        Pixels whose change in the current stage is the sky clearing, not noise: the
+        runner leaves them out of that stage's noise mask.
     """
 
     lin: np.ndarray
@@ -185,6 +191,8 @@ class FrameState:
     sun_visibility: np.ndarray | None = None
     sun_optical_depth: float = 0.0
     water_film: float = 0.0
+    sky_clear: float = 0.0
+    unmasked: np.ndarray | None = None
     _cache: dict = field(default_factory=dict)
 
     @property

@@ -35,7 +35,9 @@ Severity mapping (:meth:`GlareParams.from_severity`), s in (0, 1]::
     veil_coeff        = 0.5 + 2.5 · s        # clean lens … dirty windscreen
     sun_sky_ratio     = 6 (E_sun/E_sky), roughness 0.35, bloom 1.5°
 
-s = 0 is an overcast sky (``sun_sky_ratio = 0``): no glare.
+s = 0 is an overcast sky (``sun_sky_ratio = 0``): no glare. With the sun out the sky
+clears towards the CIE clear sky of the same sun, as under the shadow model
+(:mod:`simroad.noise._sunny_sky`; left out of the noise mask).
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ from simroad._validation import check_in_range
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
 from simroad.noise._arrays import fast_exp, material_weights
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, sun_direction_ego, view_geometry
+from simroad.noise._sunny_sky import CLEAR_SKY_RATIO, clear_sky
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params
 
@@ -216,6 +219,9 @@ class GlareModel(NoiseModel):
 
     def reflection(self, state: FrameState) -> None:
         p = self.params
+        # The sun is out: the sky clears with it (shared with the shadow model's sun).
+        t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
+        clear_sky(state, self.sun, t_sun * p.sun_sky_ratio / CLEAR_SKY_RATIO)
         geom = view_geometry(state.camera)
         sun, ratio, colour = self._sun_terms(state)
         rows = state.ground_rows

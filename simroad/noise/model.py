@@ -9,7 +9,9 @@ particles nearest the camera (drops, flakes), and the optics (veiling glare, blo
 Every public way to apply weather returns a :data:`NoiseResult`, ``(noisy, masks)``:
 the spoiled frame (same shape and dtype as the input) and a dict noise name -> bool
 (H, W) mask of the pixels that noise changed by at least
-:data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels.
+:data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels (the sky turning clear
+when a model brings out the sun is a change of weather, not noise: it stays out of
+the masks).
 """
 
 from __future__ import annotations
@@ -262,7 +264,11 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
         if k + 1 < len(plan) and plan[k + 1][1] is m:
             continue  # same model again: one mask update covers both stages
         enc = linear_to_srgb(state.lin)
-        masks[m.name] |= change_mask(enc_prev, enc)
+        changed = change_mask(enc_prev, enc)
+        if state.unmasked is not None:  # the sky clearing for the sun is not noise
+            changed &= ~state.unmasked
+            state.unmasked = None
+        masks[m.name] |= changed
         enc_prev = enc
     if image.dtype == np.uint8:
         return enc_prev, masks

@@ -21,6 +21,11 @@ lit horizontal scene), a face pixel is scaled by
 (``n·ŝ <= 0``) is in its own shadow and darkened by exactly the ground's ``k_c``; a
 face turned towards a low sun brightens (a sunlit wall is brighter than the road).
 
+The sky: with the sun out the sky clears, towards the CIE clear sky of the same sun
+(:mod:`simroad.noise._sunny_sky`), in proportion to ``mean(r) / 5`` (fully clear
+from E_sun/E_sky = 5 on). The sky's change is a change of weather, not noise: it is
+left out of the noise mask.
+
 Geometry
 --------
 Casters are the world's solids (``world.objects(box)``: trees, poles, signs,
@@ -69,6 +74,7 @@ from simroad._validation import SimroadError, check_in_range
 from simroad.camera.lighting import face_irradiance
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
 from simroad.noise._occluders import Shadows, mesh_shadows, prism_shadows
+from simroad.noise._sunny_sky import CLEAR_SKY_RATIO, clear_sky
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params
 
@@ -295,6 +301,8 @@ class ShadowModel(NoiseModel):
             raise SimroadError("ShadowModel.illumination() ran before prepare(); run the model through apply().")
         r = state.ground_rows
         t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
+        # The sun is out: the sky clears with it (full at today's clear-day ratio).
+        clear_sky(state, self.sun, t_sun * float(np.mean(self.params.sun_sky_ratio_rgb)) / CLEAR_SKY_RATIO)
         k = shadow_factor(self.params.sun_sky_ratio_rgb, self.sun[1], t_sun)
         c = cover[r]
         factor = cv2.merge([1.0 - c * np.float32(1.0 - kc) for kc in k])

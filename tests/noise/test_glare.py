@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from simroad.camera import PinholeCamera
+from simroad.camera import SKY, PinholeCamera
 from simroad.noise import GlareParams, make_weather, srgb_to_linear
 from simroad.noise._geometry import view_geometry
 from simroad.noise.base import sun_direction_ego
@@ -16,12 +16,16 @@ from simroad.noise.glare import air_mass, specular_lobe, sun_colour
 LOW_SUN = GlareParams(sun_azimuth_deg=0.0, sun_elevation_deg=5.0, wetness=0.3, veil_coeff=2.0)
 
 
-def _glare_at(scene, heading_deg: float, params: GlareParams = LOW_SUN) -> tuple[np.ndarray, np.ndarray]:
+def _glare_at(scene, heading_deg: float, params: GlareParams = LOW_SUN, *, sky: bool = False):
+    """The clean and glared frames; with ``sky=False`` the sky pixels are set equal in
+    both (the sun also clears the sky: tested on its own)."""
     renderer, cam = scene.renderer()
     frame = renderer.render((70.0, 2.0, math.radians(heading_deg)), [])
     w = make_weather("glare", severity=0.5, params={"glare": params})
     w.reset(0, world=scene.world)
     out, _ = w.apply(frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=()))
+    if not sky:
+        out = np.where((frame.material == SKY)[..., None], frame.rgb, out)
     return frame.rgb, out
 
 
@@ -37,6 +41,23 @@ def test_glare_grows_as_the_heading_turns_towards_a_low_sun_and_saturates(scene)
     assert all(b > 1.3 * a for a, b in zip(added[1:4], added[2:5])), added  # grows as it nears the view
     assert added[-1] > 0.85 * max(added)  # and stays at its maximum (clipping) facing the sun
     assert saturated[-1] > 300 and saturated[2] == 0
+
+
+def test_the_sky_clears_when_the_sun_comes_out(scene):
+    # The world's sky is overcast (near-neutral); under glare's sun it turns clear:
+    # bluer away from the sun (behind the car), whiter towards it.
+    clean, away = _glare_at(scene, 180.0, sky=True)
+    _, towards = _glare_at(scene, 0.0, sky=True)
+    renderer, _ = scene.renderer()
+    sky = renderer.render((70.0, 2.0, math.pi), []).material == SKY
+    top = sky & (np.arange(sky.shape[0]) < sky.shape[0] // 6)[:, None]
+
+    def blueness(img):
+        px = img[top].astype(float)
+        return float((px[:, 2] - px[:, 0]).mean())
+
+    assert blueness(away) > blueness(clean) + 20
+    assert blueness(away) > blueness(towards)
 
 
 def test_glare_is_symmetric_in_the_heading_offset(scene):

@@ -10,6 +10,7 @@ import pytest
 
 from simroad._validation import SimroadError
 from simroad.camera import ASPHALT, VehicleBox
+from simroad.camera.world import BUILDING, IS_GROUND
 from simroad.camera.mesh import Mesh
 from simroad.camera.scenery import Scenery
 from simroad.noise import ShadowModel, ShadowParams, make_weather
@@ -78,7 +79,7 @@ def test_shadows_stay_on_the_ground_while_the_car_moves(scenery):
             frame.rgb, scene.ctx(camera=cam, depth=frame.depth, material=frame.material, vehicles=())
         )
         mask = masks["shadow"]
-        near = np.isfinite(frame.depth) & (frame.depth < 50)
+        near = IS_GROUND[frame.material] & (frame.depth < 50)  # ground only: objects' faces are not on it
         views.append((cam.pose, mask & near, near))
     (pose_a, mask_a, near_a), (pose_b, mask_b, _) = views
     assert mask_a.sum() > 300 and mask_b.sum() > 300
@@ -151,14 +152,18 @@ def _square_face(x: float, normal_x: float) -> Mesh:
 def test_object_faces_are_shaded_by_their_orientation(scene, normal_x):
     faces = Mesh.concat([_square_face(10.0, normal_x)])
     face_id = np.full(scene.frame.material.shape, -1, dtype=np.int32)
-    face_id[10:30, 100:140] = 0  # a patch of sky pixels standing for the face
+    face_id[10:30, 100:140] = 0  # a patch of the sky standing for the face
+    patch = face_id == 0
+    material = scene.frame.material.copy()
+    material[patch] = BUILDING
+    image = scene.frame.rgb.copy()
+    image[patch] = 90  # a mid-grey facade: room to brighten and to darken
     p = ShadowParams(sun_azimuth_deg=0.0, sun_elevation_deg=30.0, vehicle_shadows=False, ego_shadow=False)
     w = make_weather("shadow", params={"shadow": p})
     w.reset(0, world=scene.world)
-    plain, _ = w.apply(scene.frame.rgb, scene.ctx())
-    out, masks = w.apply(scene.frame.rgb, scene.ctx(face_id=face_id, faces=faces))
-    patch = face_id == 0
-    before, after = scene.frame.rgb[patch].astype(float), out[patch].astype(float)
+    plain, _ = w.apply(image, scene.ctx(material=material))
+    out, masks = w.apply(image, scene.ctx(material=material, face_id=face_id, faces=faces))
+    before, after = image[patch].astype(float), out[patch].astype(float)
     assert masks["shadow"][patch].all()
     assert (after.mean() > before.mean()) == (normal_x > 0)
     np.testing.assert_array_equal(out[~patch], plain[~patch])
