@@ -13,9 +13,9 @@ import json
 import signal
 import sys
 from pathlib import Path
-from typing import Any
 
 from simroad._validation import SimroadError, check_choice, check_output_dir
+from simroad.cli.env_options import env_options
 from simroad.cli.types import MAX_SEED, given
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
@@ -32,7 +32,6 @@ from simroad.experiments.training import train_detector
 __all__ = [
     "ABLATE_GRID_FLAGS",
     "RUN_KEYS",
-    "camera_options",
     "cmd_ablate",
     "cmd_episode",
     "cmd_evaluate",
@@ -73,15 +72,10 @@ def refuse_flags(args: argparse.Namespace, dests: tuple[str, ...], mode: str) ->
         )
 
 
-def camera_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The camera keywords of the environment options (``--width`` ...)."""
-    return {"width": args.width, "height": args.height, "hfov_deg": args.hfov, "pitch_deg": args.pitch}
-
-
 def cmd_frames(args: argparse.Namespace) -> int:
     """``simroad frames``: export frames, GT road masks and meta.json."""
     env_kwargs = {"scenario": args.scenario, "noise": args.noise, "severity": args.severity,
-                  **camera_options(args), "traffic": not args.no_traffic}  # fmt: skip
+                  **env_options(args), "traffic": not args.no_traffic}  # fmt: skip
     out = export_frames(
         args.out, seed=args.seed, count=args.count, every=args.every, env_kwargs=env_kwargs, progress=not args.quiet
     )
@@ -97,7 +91,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     spec = EpisodeSpec(
         scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
         driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
-        route_m=args.route_m, env_options=camera_options(args),
+        route_m=args.route_m, env_options=env_options(args),
     )  # fmt: skip
     record = run_episode(spec, video=args.video)
     if args.json:

@@ -9,14 +9,11 @@ restates a number.
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import inspect
-from collections.abc import Callable, Sequence
 from typing import Any
 
-from simroad.camera.geometry import CameraConfig
 from simroad.cli import commands
 from simroad.cli import types as T
+from simroad.cli.env_options import add_env_options, default_of, names
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
@@ -46,59 +43,6 @@ _STEPS = T.int_in(1, 1_000_000)
 _COUNT = T.int_in(1, 100_000)
 
 
-def _default(owner: Callable[..., Any], name: str) -> Any:
-    """The default of dataclass field or keyword parameter ``name`` of ``owner``."""
-    if dataclasses.is_dataclass(owner):
-        for f in dataclasses.fields(owner):
-            if f.name == name:
-                if f.default_factory is not dataclasses.MISSING:
-                    return f.default_factory()
-                return f.default
-    return inspect.signature(owner).parameters[name].default
-
-
-def _names(values: Sequence[object]) -> str:
-    return ", ".join(str(v) for v in values)
-
-
-def _add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) -> None:
-    """Weather, scenario and camera options; their defaults are ``defaults``' fields."""
-    g = p.add_argument_group("environment")
-    scenario, noise, severity = (_default(defaults, k) for k in ("scenario", "noise", "severity"))
-    g.add_argument(
-        "--scenario",
-        # checked by the library's config (RoadCamConfig / EpisodeSpec) before any work;
-        # its message "scenario: unknown value ..." names the flag
-        default=scenario,
-        help=f"{_names(SCENARIO_NAMES)} (default: {scenario})",
-    )
-    g.add_argument(
-        "--noise",
-        type=_NOISE,
-        default=noise,
-        help=f"{_names(NOISE_NAMES)}, or a composition like rain+glare (default: {noise})",
-    )
-    g.add_argument("--severity", type=_UNIT, default=severity, help=f"weather severity in [0, 1] (default: {severity})")
-    cam = {k: _default(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg")}
-    g.add_argument("--width", type=_INT, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
-    g.add_argument(
-        "--height", type=_INT, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
-    )
-    g.add_argument(
-        "--hfov",
-        type=T.finite_float(),
-        default=cam["hfov_deg"],
-        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
-    )
-    g.add_argument(
-        "--pitch",
-        type=T.finite_float(),
-        default=cam["pitch_deg"],
-        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
-    )
-    g.add_argument("--no-traffic", action="store_true", help="no other vehicles")
-
-
 def _shown(value: Any) -> str:
     """A default as the user would type it (lists comma-joined)."""
     return ",".join(str(v) for v in value) if isinstance(value, (tuple, list)) else f"{value}"
@@ -110,8 +54,8 @@ def _add_frames(sub: Any) -> None:
         help="export camera frames and ground-truth road masks",
         description="Drive the ground-truth autopilot and write frame_NNNN.png, road_NNNN.png (GT 0/255) and meta.json (camera intrinsics, pose per frame).",
     )
-    _add_env_options(p, RoadCamConfig)
-    d = {k: _default(export_frames, k) for k in ("seed", "count", "every")}
+    add_env_options(p, RoadCamConfig)
+    d = {k: default_of(export_frames, k) for k in ("seed", "count", "every")}
     p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument(
         "--count", type=T.int_in(1, 100_000), default=d["count"], help=f"number of frames (default: {d['count']})"
@@ -133,20 +77,20 @@ def _add_episode(sub: Any) -> None:
         help="run one closed-loop episode and score it",
         description="Drive one episode: the camera frame goes to the driver (the road detector + lane keeping, or the oracle on the ground-truth mask); the episode is scored on the mask (FNR/FPR) and on safety. Exit status 1 if a --require fails.",
     )
-    _add_env_options(p, EpisodeSpec)
-    d = {k: _default(EpisodeSpec, k) for k in ("filters", "driver", "seed", "steps")}
+    add_env_options(p, EpisodeSpec)
+    d = {k: default_of(EpisodeSpec, k) for k in ("filters", "driver", "seed", "steps")}
     filters = format_filters(d["filters"])
     p.add_argument(
         "--filters",
         type=_FILTERS,
         default=filters,
-        help=f"detector filters: none, all, or names joined by '+' ({_names(FILTER_NAMES)}), e.g. shadow+light (default: {filters})",
+        help=f"detector filters: none, all, or names joined by '+' ({names(FILTER_NAMES)}), e.g. shadow+light (default: {filters})",
     )
     p.add_argument(
         "--driver",
         type=T.choice(DRIVER_NAMES),
         default=d["driver"],
-        help=f"{_names(DRIVER_NAMES)} (default: {d['driver']})",
+        help=f"{names(DRIVER_NAMES)} (default: {d['driver']})",
     )
     p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument(
@@ -184,17 +128,17 @@ def _add_ablate(sub: Any) -> None:
         help="run an ablation sweep (resumable) and write its report",
         description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
     )
-    d = {k: _shown(_default(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
+    d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
     p.add_argument("--config", type=T.input_file(), help="a TOML file with the same names as keys (flags override it)")
     p.add_argument(
         "--scenarios",
         type=T.choice_list(SCENARIO_NAMES),
-        help=f"comma-separated: {_names(SCENARIO_NAMES)} (default: {d['scenarios']})",
+        help=f"comma-separated: {names(SCENARIO_NAMES)} (default: {d['scenarios']})",
     )
     p.add_argument(
         "--noises",
         type=_NOISES,
-        help=f"comma-separated: {_names(NOISE_NAMES)} or compositions like rain+glare (default: {d['noises']})",
+        help=f"comma-separated: {names(NOISE_NAMES)} or compositions like rain+glare (default: {d['noises']})",
     )
     p.add_argument(
         "--severities",
@@ -204,14 +148,14 @@ def _add_ablate(sub: Any) -> None:
     p.add_argument(
         "--filters",
         type=_FILTER_SETS,
-        help=f"comma-separated filter sets: none, all, or names joined by '+' ({_names(FILTER_NAMES)}) (default: {d['filters']})",
+        help=f"comma-separated filter sets: none, all, or names joined by '+' ({names(FILTER_NAMES)}) (default: {d['filters']})",
     )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
     p.add_argument("--steps", type=_STEPS, help=f"policy steps per episode (default: {d['steps']})")
     p.add_argument("--workers", type=T.int_in(1, 4096), help="parallel episodes (default: all cores)")
     p.add_argument(
-        "--backend", type=T.choice(BACKENDS), help=f"{_names(BACKENDS)} (default: {_default(run_ablation, 'backend')})"
+        "--backend", type=T.choice(BACKENDS), help=f"{names(BACKENDS)} (default: {default_of(run_ablation, 'backend')})"
     )
     p.add_argument(
         "--ray-address",
@@ -239,7 +183,7 @@ def _add_detector(sub: Any) -> None:
     p = sub.add_parser(
         "train-detector",
         help="train a road detector like the shipped one",
-        description="Render clean frames of all three scenarios (one world palette per seed), fit the default SVM detector and save it as npz (no pickle) to --out; the destination is checked before training. Use the file with RoadDetector.load(PATH) or evaluate-detector --model PATH.",
+        description="Render clean frames of every scenario (one world palette per seed), fit the default SVM detector and save it as npz (no pickle) to --out; the destination is checked before training. Use the file with RoadDetector.load(PATH) or evaluate-detector --model PATH.",
     )
     p.add_argument("--out", default=DEFAULT_MODEL_FILE, help=f"output .npz (default: ./{DEFAULT_MODEL_FILE})")
     p.add_argument(
@@ -263,7 +207,7 @@ def _add_detector(sub: Any) -> None:
     p.set_defaults(func=commands.cmd_train)
 
     d = {
-        k: _default(evaluate_detector, k)
+        k: default_of(evaluate_detector, k)
         for k in ("settings", "scenarios", "noise", "severity", "seeds", "frames_per_seed")
     }
     p = sub.add_parser(
@@ -316,12 +260,12 @@ def _add_detector(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     p.set_defaults(func=commands.cmd_evaluate)
 
-    d = {k: _default(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}
-    variant = _default(apply_filters, "variant")
+    d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}
+    variant = default_of(apply_filters, "variant")
     p = sub.add_parser(
         "filter-effect",
         help="does each filter earn its place? FNR/FPR with and without it on its weather",
-        description="Render held-out worlds of all three scenarios under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels.",
+        description="Render held-out worlds of every scenario under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels.",
     )
     p.add_argument(
         "--severity",
@@ -339,7 +283,7 @@ def _add_detector(sub: Any) -> None:
         "--variant",
         type=T.choice_list(FILTER_VARIANTS),
         default=variant,
-        help=f"comma-separated filter variants: {_names(FILTER_VARIANTS)} (default: {variant})",
+        help=f"comma-separated filter variants: {names(FILTER_VARIANTS)} (default: {variant})",
     )
     p.add_argument(
         "--seeds", type=_COUNT, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
@@ -360,13 +304,13 @@ def _add_pictures(sub: Any) -> None:
     )
     p.add_argument("what", choices=("camera", "weather", "places"), help="which figure")
     p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
-    seed = _default(camera_figure, "seed")
+    seed = default_of(camera_figure, "seed")
     p.add_argument(
         "--seed", type=T.int_in(0, T.MAX_SEED - len(SCENARIO_NAMES)), default=seed, help=f"seed (default: {seed})"
     )
     p.set_defaults(func=commands.cmd_figure)
 
-    d = {k: _default(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
+    d = {k: default_of(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
     p = sub.add_parser(
         "videos",
         help="write the demo's videos: one detector episode per noise",
@@ -377,7 +321,7 @@ def _add_pictures(sub: Any) -> None:
         "--scenario",
         type=T.choice(SCENARIO_NAMES),
         default=d["scenario"],
-        help=f"{_names(SCENARIO_NAMES)} (default: {d['scenario']})",
+        help=f"{names(SCENARIO_NAMES)} (default: {d['scenario']})",
     )
     p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument("--steps", type=_STEPS, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")

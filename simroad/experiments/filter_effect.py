@@ -88,7 +88,7 @@ def filter_effect(
     filters : sequence of str
         Subset of :data:`simroad.filters.FILTERS` for the "with" run.
     seeds : iterable of int
-        Worlds; one episode per scenario (all three) and seed. The shipped model
+        Worlds; one episode per scenario (all of them) and seed. The shipped model
         was trained on worlds 0-15 (``simroad train-detector``), so keep these >= 100.
     frames : int
         Frames kept per episode.

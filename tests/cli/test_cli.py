@@ -10,11 +10,13 @@ import subprocess
 import sys
 
 import imageio.v2 as imageio
+import numpy as np
 import pytest
 
 from simroad.camera.geometry import CameraConfig
 from simroad.cli.main import main
 from simroad.cli.parser import build_parser
+from simroad.envs import RoadCamConfig, RoadCamEnv
 from simroad.experiments.demo import DEMO_NOISES, write_videos
 from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.export import export_frames
@@ -88,3 +90,23 @@ def test_videos_subcommand_writes_one_gif_per_noise(tmp_path, capsys):
         frames = imageio.mimread(out / f"{noise}.gif")
         assert len(frames) == 2 and frames[0].shape[:2] == (180, 320)
     assert capsys.readouterr().out.startswith("videos: ")
+
+
+def test_scenery_and_camera_effects_flags_reach_the_environment(tmp_path):
+    args = build_parser().parse_args(["frames", "--out", "x"])
+    assert args.scenery == RoadCamConfig().scenery and args.no_camera_effects is False
+    # Frames written with the flags equal the environment's own with the same options.
+    out = tmp_path / "f"
+    flags = ["--scenery", "0", "--no-camera-effects", "--count", "1", "--seed", "5", "--quiet"]
+    assert main(["frames", "--scenario", "highway", "--out", str(out), *flags]) == 0
+    written = imageio.imread(out / "frame_0000.png")
+    env = RoadCamEnv(scenario="highway", scenery=0.0, camera_effects=False)
+    obs, _ = env.reset(seed=5)
+    np.testing.assert_array_equal(written, obs)
+
+
+@pytest.mark.parametrize("value", ["-1", "6", "lots"])
+def test_a_bad_scenery_density_is_refused_by_name(value, capsys):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["frames", "--out", "x", "--scenery", value])
+    assert "--scenery" in capsys.readouterr().err

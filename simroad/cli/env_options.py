@@ -1,0 +1,107 @@
+"""The environment options every ``simroad`` subcommand that renders frames shares.
+
+Weather, scenario, camera, scenery and sensor flags, with their defaults read from
+the library (:class:`RoadCamConfig`, :class:`CameraConfig`, :class:`EpisodeSpec`), and
+:func:`env_options` turning the parsed flags back into RoadCam keywords.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import inspect
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from simroad.camera.geometry import CameraConfig
+from simroad.cli import types as T
+from simroad.envs.config import RoadCamConfig
+from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.noise import NOISE_NAMES
+
+__all__ = ["add_env_options", "default_of", "env_options", "names"]
+
+
+def default_of(owner: Callable[..., Any], name: str) -> Any:
+    """The default of dataclass field or keyword parameter ``name`` of ``owner``."""
+    if dataclasses.is_dataclass(owner):
+        for f in dataclasses.fields(owner):
+            if f.name == name:
+                if f.default_factory is not dataclasses.MISSING:
+                    return f.default_factory()
+                return f.default
+    return inspect.signature(owner).parameters[name].default
+
+
+def names(values: Sequence[object]) -> str:
+    """``values`` comma-joined, for help texts."""
+    return ", ".join(str(v) for v in values)
+
+
+def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) -> None:
+    """Weather, scenario, camera, scenery and sensor options; the defaults of the
+    first three are ``defaults``' fields, the rest :class:`RoadCamConfig`'s."""
+    g = p.add_argument_group("environment")
+    scenario, noise, severity = (default_of(defaults, k) for k in ("scenario", "noise", "severity"))
+    g.add_argument(
+        "--scenario",
+        # checked by the library's config (RoadCamConfig / EpisodeSpec) before any work;
+        # its message "scenario: unknown value ..." names the flag
+        default=scenario,
+        help=f"{names(SCENARIO_NAMES)} (default: {scenario})",
+    )
+    g.add_argument(
+        "--noise",
+        type=T.weather(),
+        default=noise,
+        help=f"{names(NOISE_NAMES)}, or a composition like rain+glare (default: {noise})",
+    )
+    g.add_argument(
+        "--severity",
+        type=T.float_in(0.0, 1.0),
+        default=severity,
+        help=f"weather severity in [0, 1] (default: {severity})",
+    )
+    cam = {k: default_of(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg")}
+    size = T.int_in(1, 100_000)  # the camera checks its own range
+    g.add_argument("--width", type=size, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
+    g.add_argument(
+        "--height", type=size, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
+    )
+    g.add_argument(
+        "--hfov",
+        type=T.finite_float(),
+        default=cam["hfov_deg"],
+        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
+    )
+    g.add_argument(
+        "--pitch",
+        type=T.finite_float(),
+        default=cam["pitch_deg"],
+        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
+    )
+    g.add_argument("--no-traffic", action="store_true", help="no other vehicles")
+    scenery = default_of(RoadCamConfig, "scenery")
+    g.add_argument(
+        "--scenery",
+        type=T.float_in(0.0, 5.0),
+        default=scenery,
+        help=f"density of the world's scenery (trees, poles, buildings, ...) in [0, 5]; 0 = bare (default: {scenery:g})",
+    )
+    g.add_argument(
+        "--no-camera-effects",
+        action="store_true",
+        help="a perfect pinhole camera: no sensor (exposure, noise, response curve, vignetting, motion blur)",
+    )
+
+
+def env_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The RoadCam keywords of the camera, scenery and sensor flags (``--width`` ...)."""
+    return {
+        "width": args.width,
+        "height": args.height,
+        "hfov_deg": args.hfov,
+        "pitch_deg": args.pitch,
+        "scenery": args.scenery,
+        "camera_effects": not args.no_camera_effects,
+    }
