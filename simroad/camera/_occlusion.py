@@ -95,7 +95,9 @@ def prepare(mesh: Mesh) -> Prepared:
     counts = mesh.counts[face]
     # Decals: the plane of an earlier face of the same solid.
     q = np.column_stack([solid, np.round(N * _PLANE_Q), np.round(k * _OFFSET_Q)]) + 0.0
-    first = np.unique(q, axis=0, return_index=True)[1]
+    o = np.lexsort(q.T[::-1])  # stable: equal planes keep mesh order
+    qs = q[o]
+    first = o[np.r_[True, (qs[1:] != qs[:-1]).any(axis=1)]]
     decal = np.ones(F, dtype=bool)
     decal[first] = False
     real = np.arange(vm) < counts[:, None]
