@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from simroad.camera._painter import MeshPainter, clip_near, face_colours
+from simroad.camera._painter import MeshPainter, clip_near
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
@@ -95,7 +95,8 @@ class Frame:
     face_id : ndarray, int32, (H, W)
         Index into ``faces`` of the face each pixel sees; -1 for ground and sky.
     faces : Mesh
-        The faces that were painted (scenery, then vehicles).
+        The faces that were drawn (of the scenery, then of the vehicles; faces out
+        of view, turned away or below a pixel are left out).
     """
 
     rgb: np.ndarray
@@ -159,7 +160,7 @@ class CameraRenderer:
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
         self._footprint = np.vstack([hull, [[c.forward_offset_m, 0.0]]]).astype(float)
-        self._painter = MeshPainter(camera)
+        self._painter = MeshPainter(camera, haze=self._haze)
         self._ground_flat = camera.ground_valid.ravel()
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
         self._gx, self._gy = eg[..., 0].ravel(), eg[..., 1].ravel()
@@ -234,11 +235,12 @@ class CameraRenderer:
             self._contact_shadows(rgb, ground_vehicles)
         m = fp.min(axis=0) - _OBJECT_MARGIN_M
         M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
-        faces = Mesh.concat([self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)])
-        face_id = _NO_FACES
+        parts = [self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)]
+        face_id, faces = self._painter.paint_parts(parts, rgb, material, depth)
         if len(faces):
-            face_id = self._painter.paint(faces, rgb, material, depth, colours=self._face_colours(faces))
             road &= face_id < 0
+        else:
+            face_id = _NO_FACES
         return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces)
 
     # ------------------------------------------------------- things with height
@@ -257,17 +259,6 @@ class CameraRenderer:
             if dx * ch + dy * sh > -reach and math.hypot(dx, dy) < r + reach:
                 out.append(v)
         return out
-
-    def _face_colours(self, faces: Mesh) -> np.ndarray:
-        """Flat colour of each face, fading into the horizon haze as the ground does."""
-        col = face_colours(faces).astype(np.float32)
-        cx, cy = self.camera.position_world
-        d = np.hypot(faces.vertices[:, :, 0] - cx, faces.vertices[:, :, 1] - cy).mean(axis=1)
-        c = self.camera.config
-        fade_start = 0.6 * c.max_range_m
-        t = np.clip((d - fade_start) / (c.max_range_m - fade_start), 0.0, 1.0)[:, None]
-        col += (t * t * (3 - 2 * t)) * (self._haze - col)
-        return col.astype(np.uint8)
 
     def _contact_shadows(self, rgb: np.ndarray, vehicles: Sequence[VehicleBox]) -> None:
         """Darken the ground under and around each vehicle (ambient occlusion).

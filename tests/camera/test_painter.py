@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera
+from simroad.camera._occlusion import prepare
 from simroad.camera._painter import MeshPainter
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
-from simroad.camera.world import BUILDING, OVERPASS, POLE, WALL
+from simroad.camera.world import BUILDING, OVERPASS, POLE, VEGETATION, WALL
 
 GREY = (0.3, 0.3, 0.3)
 
@@ -132,3 +133,81 @@ def test_faces_behind_the_camera_are_not_drawn():
     cam = _camera()
     fid, *_ = _paint(cam, _box(-20.0, 0.0, 4.0, 4.0, 0.0, 3.0))
     assert (fid >= 0).sum() == 0
+
+
+def _with_decal(box: Mesh, face: int, shrink: float = 0.25, albedo=(0.05, 0.05, 0.05)) -> Mesh:
+    """``box`` plus a window: a smaller copy of ``face`` in its plane, drawn after it."""
+    n = box.counts[face]
+    poly = box.vertices[face, :n]
+    c = poly.mean(axis=0)
+    win = np.repeat((c + (1 - shrink) * 0.5 * (poly - c))[-1:], 16, axis=0)
+    win[:n] = c + (1 - shrink) * 0.5 * (poly - c)
+    return Mesh(
+        np.concatenate([box.vertices, win[None]]),
+        np.append(box.counts, n).astype(np.int32),
+        np.concatenate([box.albedo, np.array([albedo], dtype=np.float32)]),
+        np.append(box.material, box.material[face]).astype(np.uint8),
+        np.concatenate([box.normal, box.normal[face][None]]),
+        np.append(box.solid, box.solid[face]),
+    )
+
+
+def test_decals_are_found_and_add_no_plane_or_corner():
+    box = _box(30, 0, 4, 6, 0, 5)
+    rear = int(np.argmin(box.normal[:, 0]))  # faces the camera (normal -x)
+    prep = prepare(_with_decal(box, rear))
+    assert prep.decal.sum() == 1 and prep.decal[prep.face == 6].all()
+    assert prep.planes.shape[1] == 6  # the box's six planes
+    assert prep.corners.shape[1] == 8  # the box's corners, the window adds none
+
+
+def test_a_window_is_drawn_on_its_facade_and_hides_nothing_else():
+    cam = _camera()
+    box = _box(30, 0, 4, 6, 0, 5)
+    rear = int(np.argmin(box.normal[:, 0]))
+    mesh = Mesh.concat([_with_decal(box, rear), _box(20, 0, 1, 1, 0, 1, material=POLE)])
+    fid, _, material, depth = _paint(cam, mesh)
+    win = fid == 6
+    assert win.sum() > 50
+    assert (material == POLE).sum() > 20  # the pole in front still shows
+    # The window's depth is its facade's depth (the same plane).
+    _, _, _, d_box = _paint(cam, box)
+    np.testing.assert_allclose(depth[win], d_box[win], rtol=1e-5)
+
+
+def test_a_tree_in_front_of_a_facade_and_a_pole_beside_it():
+    cam = _camera()
+    facade = _box(40, 8, 30, 10, 0, 12, material=BUILDING)  # along the road, on the right
+    tree = _box(33, 3.5, 2, 2, 0, 5, material=VEGETATION)
+    pole = _box(50, 2.5, 0.3, 0.3, 0, 6, material=POLE)
+    for parts in ([facade, tree, pole], [pole, tree, facade], [tree, facade, pole]):
+        mesh = Mesh.concat(parts)
+        _, _, material, _ = _paint(cam, mesh)
+        for part, code in ((tree, VEGETATION), (pole, POLE)):
+            alone, *_ = _paint(cam, part)
+            assert (alone >= 0).sum() > 10
+            assert np.all(material[alone >= 0] == code)
+
+
+def test_subpixel_faces_are_not_drawn():
+    cam = _camera()
+    far = _box(90, 0, 0.02, 0.02, 0, 0.02)  # 2 cm at 90 m: a tenth of a pixel
+    fid, *_ = _paint(cam, far)
+    assert (fid >= 0).sum() == 0
+
+
+def test_paint_parts_returns_the_drawn_faces_it_indexes():
+    cam = _camera()
+    c = cam.config
+    a, b = _box(30, 0, 4, 6, 0, 5), _box(20, 2, 2, 2, 0, 2, material=POLE)
+    rgb = np.zeros((c.height, c.width, 3), dtype=np.uint8)
+    material = np.zeros((c.height, c.width), dtype=np.uint8)
+    depth = cam.depth.copy()
+    fid, faces = MeshPainter(cam).paint_parts([a, Mesh.empty(), b], rgb, material, depth)
+    on = fid >= 0
+    assert on.sum() > 100 and len(faces) <= len(a) + len(b)
+    np.testing.assert_array_equal(faces.material[fid[on]], material[on])
+    assert set(np.unique(faces.solid)) == {0, 1}  # solid ids as Mesh.concat numbers them
+    # Same pixels as one painted concatenation.
+    ref, *_ = _paint(cam, Mesh.concat([a, b]))
+    np.testing.assert_array_equal(ref >= 0, on)
