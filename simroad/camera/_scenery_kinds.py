@@ -64,7 +64,7 @@ def tree(
     if crown_bottom_m is not None:
         lift = max(0.0, crown_bottom_m - (base + float(verts[:, 2].min()) * scale[2]))
         base, trunk_top = base + lift, trunk_top + lift
-    b.prism(_square(at, 0.1 + 0.07 * radius, yaw), 0.0, trunk_top, bark, VEGETATION)
+    b.prism(_square(at, 0.07 + 0.05 * radius, yaw), 0.0, trunk_top, bark, VEGETATION)
     v = (verts * scale) @ rot.T + np.array([at[0], at[1], base])
     b.polyhedron(v, faces, leaf, VEGETATION, crown=True)
 
@@ -87,13 +87,12 @@ def street_light(
 
 
 def sign(b: SolidBuilder, rng: np.random.Generator, at: np.ndarray, facing: float, steel) -> None:
-    """A sign: a post and a plate facing heading ``facing`` (rad), its front a
-    coloured decal."""
-    b.prism(rect(at, facing, 0.08, 0.08), 0.0, rng.uniform(2.2, 2.8), steel, POLE)
+    """A sign: a post and, resting on its top, a plate facing heading ``facing``
+    (rad) with a coloured decal as its front."""
     w, h = rng.uniform(0.6, 1.0), rng.uniform(0.6, 1.0)
     z0 = rng.uniform(1.8, 2.2)
-    ctr = at + 0.06 * np.array([math.cos(facing), math.sin(facing)])
-    fp = rect(ctr, facing, 0.04, w)
+    b.prism(rect(at, facing, 0.08, 0.08), 0.0, z0, steel, POLE)
+    fp = rect(at, facing, 0.04, w)
     sid = b.prism(fp, z0, z0 + h, steel, SIGN)
     front = np.array([[*fp[0], z0], [*fp[1], z0], [*fp[1], z0 + h], [*fp[0], z0 + h]])
     face = SIGN_FACES[int(rng.integers(len(SIGN_FACES)))]

@@ -29,14 +29,14 @@ def rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.
 def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """Unit canopy polyhedra (vertices (V, 3), triangle/face index lists).
 
-    ``round``: hulls of 6-7 points spread on a unit sphere (8-10 faces), the
+    ``round``: hulls of 7 points spread on a unit sphere (10 faces), the
     crowns of deciduous trees; ``cone``: a conifer, an apex over a ring of 6 points
     (7 faces), base at z = 0 and apex at z = 1. Fixed at import (their own seed),
     so every world shares them and per-tree draws only scale and turn them.
     """
     rng = np.random.default_rng(20261201)
     out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"round": [], "cone": []}
-    for n in (7, 7, 7, 6, 7, 6):
+    for n in (7, 7, 7, 7, 7, 7):
         golden = np.pi * (3.0 - math.sqrt(5.0))
         k = np.arange(n) + 0.5
         z = 1.0 - 2.0 * k / n
