@@ -177,7 +177,7 @@ class RoadIndex:
         offsets, ks = self._chain_of[chain]
         return float(offsets[-1]) + float(self.lanes[ks[-1]].length)
 
-    def chain_points(self, chain: int, side: int, sg: np.ndarray, off: float) -> tuple[np.ndarray, np.ndarray]:
+    def chain_points(self, chain: int, side: int, sg, off: float) -> tuple[np.ndarray, np.ndarray]:
         """Points ``off`` m beyond the ``side`` edge of ``chain`` at arc lengths ``sg``
         (N,) along it (clamped to the chain), and the outward normals there, (N, 2)
         each. Edge samples of the same chain and side lie on these lines."""
@@ -199,6 +199,28 @@ class RoadIndex:
             h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
             nrm[sel] = np.column_stack([-np.sin(h), np.cos(h)]) * side
         return xy, nrm
+
+    def polyline(
+        self, chain: int, side: int, t0: float, t1: float, off: float, tol: float = 0.05
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The line ``off`` m beyond an edge from arc length ``t0`` to ``t1`` as 1, 2
+        or 4 straight pieces, the fewest that stay within ``tol`` m of it: points and
+        outward normals (K, 2), arc lengths (K,)."""
+        ts = np.linspace(t0, t1, 5)
+        pts, nrm = self.chain_points(chain, side, ts, off)
+
+        def dev(a: int, c: int, mids: list[int]) -> float:
+            d = pts[c] - pts[a]
+            v = pts[mids] - pts[a]
+            return float(np.abs(d[0] * v[:, 1] - d[1] * v[:, 0]).max() / max(float(np.hypot(*d)), 1e-9))
+
+        if dev(0, 4, [1, 2, 3]) < tol:
+            idx = [0, 4]
+        elif max(dev(0, 2, [1]), dev(2, 4, [3])) < tol:
+            idx = [0, 2, 4]
+        else:
+            idx = [0, 1, 2, 3, 4]
+        return pts[idx], nrm[idx], ts[idx]
 
     def lane_length(self, k: int) -> float:
         """Length of lane ``k`` (m; infinite for the default straight road)."""

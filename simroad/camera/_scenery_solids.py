@@ -16,7 +16,7 @@ from scipy.spatial import ConvexHull
 
 from simroad.camera.mesh import MAX_VERTICES, Mesh
 
-__all__ = ["CANOPY_TEMPLATES", "SolidBuilder", "rect"]
+__all__ = ["CANOPY_TEMPLATES", "SolidBuilder", "outline", "rect"]
 
 
 def rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.ndarray:
@@ -24,6 +24,15 @@ def rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.
     c, s = math.cos(heading), math.sin(heading)
     f, r = np.array([c, s]) * length / 2, np.array([-s, c]) * width / 2
     return np.array([centre + f - r, centre + f + r, centre - f + r, centre - f - r])
+
+
+def outline(poly: np.ndarray, step: float = 2.0) -> np.ndarray:
+    """Points every ``step`` m or less around a polygon (K, 2), and its centre."""
+    out = [poly.mean(axis=0)[None]]
+    for a, c in zip(poly, np.roll(poly, -1, axis=0)):
+        n = max(1, math.ceil(float(np.hypot(*(c - a))) / step))
+        out.append(a + np.linspace(0.0, 1.0, n, endpoint=False)[:, None] * (c - a))
+    return np.vstack(out)
 
 
 def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:

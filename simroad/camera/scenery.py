@@ -45,7 +45,7 @@ from simroad._validation import check_choice, check_in_range
 from simroad.camera import _scenery_kinds as kinds
 from simroad.camera._scenery_conflicts import Candidates, kept_objects
 from simroad.camera._scenery_road import RoadIndex
-from simroad.camera._scenery_solids import SolidBuilder, rect
+from simroad.camera._scenery_solids import SolidBuilder, outline, rect
 from simroad.camera.materials import draw_albedo
 from simroad.camera.mesh import Mesh
 
@@ -309,24 +309,9 @@ class Scenery:
                 self._facade(b, chain, side, t, min(t + width, self.road.chain_end(chain)))
 
     def _run(self, chain: int, side: int, t: float, off: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Polyline ``off`` m beyond an edge over the slot from ``t``: as few straight
-        pieces as keep within 5 cm of the curve. Points, normals (K, 2), arc lengths."""
-        ts = np.linspace(t, min(t + _SLOT_M, self.road.chain_end(chain)), 5)
-        pts, nrm = self.road.chain_points(chain, side, ts, off)
-
-        def dev(a: int, c: int, mids: list[int]) -> float:
-            d = pts[c] - pts[a]
-            ln = max(float(np.hypot(*d)), 1e-9)
-            v = pts[mids] - pts[a]
-            return float(np.abs(d[0] * v[:, 1] - d[1] * v[:, 0]).max() / ln)
-
-        if dev(0, 4, [1, 2, 3]) < 0.05:
-            idx = [0, 4]
-        elif max(dev(0, 2, [1]), dev(2, 4, [3])) < 0.05:
-            idx = [0, 2, 4]
-        else:
-            idx = [0, 1, 2, 3, 4]
-        return pts[idx], nrm[idx], ts[idx]
+        """The slot from ``t`` as a polyline ``off`` m beyond the edge (see
+        :meth:`RoadIndex.polyline`)."""
+        return self.road.polyline(chain, side, t, min(t + _SLOT_M, self.road.chain_end(chain)), off)
 
     def _rail(self, b: SolidBuilder, chain: int, side: int, t: float, steel, group: int) -> None:
         """One slot of a guard rail: the beam and posts every 6 m."""
@@ -347,7 +332,7 @@ class Scenery:
         front, _ = self.road.chain_points(chain, side, [t0, t1], back)
         rear, _ = self.road.chain_points(chain, side, [t0, t1], back + depth)
         fp = np.array([front[0], front[1], rear[1], rear[0]])
-        if float(np.hypot(*(front[1] - front[0]))) < 5.0 or not self._clear(_outline(fp), self.sidewalk_m + 0.1):
+        if float(np.hypot(*(front[1] - front[0]))) < 5.0 or not self._clear(outline(fp), self.sidewalk_m + 0.1):
             return
         b.begin(RANK["facade"])
         kinds.building(b, frng, fp, int(frng.integers(2, 7)), shop_front=True)
@@ -367,7 +352,7 @@ class Scenery:
             heading, _ = near
             fp = rect(at, heading, rng.uniform(8.0, 16.0), rng.uniform(7.0, 12.0))
             d = self.road.distance(at[None], reach=40.0)[0]
-            if d < 35.0 and self._clear(_outline(fp), sw + 4.0):
+            if d < 35.0 and self._clear(outline(fp), sw + 4.0):
                 b.begin(RANK["house"])
                 kinds.building(b, rng, fp, int(rng.integers(1, 4)))
         pts, shape, radius = [], [], []
@@ -417,12 +402,3 @@ class Scenery:
         if self._clear(pads, self.sidewalk_m + 1.0):
             b.begin(RANK["overpass"])
             kinds.overpass(b, rng, centre, heading, ext[0], ext[1])
-
-
-def _outline(poly: np.ndarray, step: float = 2.0) -> np.ndarray:
-    """Points every ``step`` m or less around a polygon (K, 2), and its centre."""
-    out = [poly.mean(axis=0)[None]]
-    for a, c in zip(poly, np.roll(poly, -1, axis=0)):
-        n = max(1, math.ceil(float(np.hypot(*(c - a))) / step))
-        out.append(a + np.linspace(0.0, 1.0, n, endpoint=False)[:, None] * (c - a))
-    return np.vstack(out)

@@ -198,7 +198,11 @@ def test_no_two_objects_intersect(scenario):
                         shoulder_m=s.shoulder_m, sidewalk_m=s.sidewalk_m)  # fmt: skip
         x0, y0, x1, y1 = w.bounds()
         cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-        box = (cx - 150, cy - 150, cx + 150, cy + 150) if seed % 2 else (x0 - 5, y0 - 5, min(x1, x0 + 300), min(y1, y0 + 300))
+        box = (
+            (cx - 150, cy - 150, cx + 150, cy + 150)
+            if seed % 2
+            else (x0 - 5, y0 - 5, min(x1, x0 + 300), min(y1, y0 + 300))
+        )
         m = dense.meshes(*box)
         key, crown = dense.solid_objects(*box)
         ids = np.unique(m.solid)
