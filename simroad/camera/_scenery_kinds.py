@@ -28,8 +28,8 @@ SIGN_FACES = np.array(
 _FLOOR_M = 3.1
 
 
-def _hexagon(at: np.ndarray, radius: float) -> np.ndarray:
-    phi = np.arange(6) * (np.pi / 3)
+def _square(at: np.ndarray, radius: float, turn: float) -> np.ndarray:
+    phi = np.arange(4) * (np.pi / 2) + turn
     return at + radius * np.column_stack([np.cos(phi), np.sin(phi)])
 
 
@@ -64,9 +64,9 @@ def tree(
     if crown_bottom_m is not None:
         lift = max(0.0, crown_bottom_m - (base + float(verts[:, 2].min()) * scale[2]))
         base, trunk_top = base + lift, trunk_top + lift
-    b.prism(_hexagon(at, 0.08 + 0.06 * radius), 0.0, trunk_top, bark, VEGETATION)
+    b.prism(_square(at, 0.07 + 0.05 * radius, yaw), 0.0, trunk_top, bark, VEGETATION)
     v = (verts * scale) @ rot.T + np.array([at[0], at[1], base])
-    b.polyhedron(v, faces, leaf, VEGETATION)
+    b.polyhedron(v, faces, leaf, VEGETATION, crown=True)
 
 
 def street_light(
@@ -87,67 +87,75 @@ def street_light(
 
 
 def sign(b: SolidBuilder, rng: np.random.Generator, at: np.ndarray, facing: float, steel) -> None:
-    """A sign: a post and a plate facing heading ``facing`` (rad), its front a
-    coloured decal."""
-    b.prism(rect(at, facing, 0.08, 0.08), 0.0, rng.uniform(2.2, 2.8), steel, POLE)
+    """A sign: a post and, resting on its top, a plate facing heading ``facing``
+    (rad) with a coloured decal as its front."""
     w, h = rng.uniform(0.6, 1.0), rng.uniform(0.6, 1.0)
     z0 = rng.uniform(1.8, 2.2)
-    ctr = at + 0.06 * np.array([math.cos(facing), math.sin(facing)])
-    fp = rect(ctr, facing, 0.04, w)
+    b.prism(rect(at, facing, 0.08, 0.08), 0.0, z0, steel, POLE)
+    fp = rect(at, facing, 0.04, w)
     sid = b.prism(fp, z0, z0 + h, steel, SIGN)
     front = np.array([[*fp[0], z0], [*fp[1], z0], [*fp[1], z0 + h], [*fp[0], z0 + h]])
     face = SIGN_FACES[int(rng.integers(len(SIGN_FACES)))]
     b.decal(sid, front, face, SIGN)
 
 
-def _windows(b: SolidBuilder, sid: int, p0: np.ndarray, p1: np.ndarray, floors: int, glass, lit_floor0: bool) -> None:
-    """Rows of windows on the facade from ``p0`` to ``p1`` (ground corners, (2,))."""
+def _windows(
+    b: SolidBuilder, sid: int, p0: np.ndarray, p1: np.ndarray, floors: int, glass, pitch: float, *, shop: bool
+) -> None:  # fmt: skip
+    """Windows on the wall from ``p0`` to ``p1`` (ground corners, (2,)): one per
+    ``pitch`` m and floor; ``shop``: the ground floor is one shop window."""
     length = float(np.linalg.norm(p1 - p0))
-    n = int(length // 3.0)
+    n = int(length // pitch)
     if n < 1:
         return
     d = (p1 - p0) / length
-    margin = (length - n * 3.0) / 2 + 0.9
+    wide = 0.45 * pitch
+    margin = (length - n * pitch) / 2 + (pitch - wide) / 2
     for f in range(floors):
-        z0 = f * _FLOOR_M + (0.4 if (f == 0 and lit_floor0) else 0.9)
-        z1 = f * _FLOOR_M + 2.3
+        z0, z1 = f * _FLOOR_M + 0.9, f * _FLOOR_M + 2.3
+        if f == 0 and shop:
+            a, c = p0 + d * 0.6, p1 - d * 0.6
+            b.decal(sid, np.array([[*a, 0.3], [*c, 0.3], [*c, 2.6], [*a, 2.6]]), glass, BUILDING)
+            continue
         for k in range(n):
-            a = p0 + d * (margin + 3.0 * k)
-            c = a + d * 1.2
+            a = p0 + d * (margin + pitch * k)
+            c = a + d * wide
             b.decal(sid, np.array([[*a, z0], [*c, z0], [*c, z1], [*a, z1]]), glass, BUILDING)
 
 
 def building(
-    b: SolidBuilder, rng: np.random.Generator, centre: np.ndarray, heading: float, front_m: float, depth_m: float,
-    floors: int, *, shop_front: bool = False,
+    b: SolidBuilder, rng: np.random.Generator, footprint: np.ndarray, floors: int, *, shop_front: bool = False
 ) -> None:  # fmt: skip
-    """A box building ``front_m`` along ``heading`` and ``depth_m`` deep, with a flat
-    roof and window rows on every facade."""
+    """A building over a convex quadrilateral ``footprint`` (4, 2) with a flat roof
+    and rows of windows; ``shop_front``: a town facade whose street face (corners 0
+    to 1) alone has windows (its neighbours hide the sides), shops at ground level."""
     kind = ("plaster", "brick", "concrete")[int(rng.choice(3, p=[0.5, 0.3, 0.2]))]
     wall_a = draw_albedo(kind, rng)
     roof = draw_albedo("concrete", rng) * np.float32(0.6)
     glass = draw_albedo("glass", rng)
     height = floors * _FLOOR_M + rng.uniform(0.3, 1.2)
-    fp = rect(centre, heading, front_m, depth_m)
-    sid = b.prism(fp, 0.0, height, wall_a, BUILDING, top_albedo=roof)
-    for k in range(4):
-        _windows(b, sid, fp[k], fp[(k + 1) % 4], floors, glass, shop_front)
+    pitch = rng.uniform(3.2, 4.2)
+    sid = b.prism(footprint, 0.0, height, wall_a, BUILDING, top_albedo=roof)
+    for k in range(1 if shop_front else 4):
+        _windows(b, sid, footprint[k], footprint[(k + 1) % 4], floors, glass, pitch, shop=shop_front)
 
 
-def wall(b: SolidBuilder, rng_albedo, p0: np.ndarray, p1: np.ndarray, normal: np.ndarray, height: float) -> None:
-    """One 0.3 m thick wall segment from ``p0`` to ``p1`` (its road-side face), m."""
-    back = normal * 0.3
-    b.prism(np.array([p0, p1, p1 + back, p0 + back]), 0.0, height, rng_albedo, WALL)
+def wall(b: SolidBuilder, albedo, footprint: np.ndarray, height: float) -> None:
+    """One wall piece over a quadrilateral ``footprint`` (4, 2), ``height`` m high."""
+    b.prism(footprint, 0.0, height, albedo, WALL)
 
 
-def guard_rail(b: SolidBuilder, steel, p0: np.ndarray, p1: np.ndarray, normal: np.ndarray) -> None:
-    """One W-beam segment from ``p0`` to ``p1`` (its road-side face) and a post at
-    ``p0``; ``normal`` points away from the road."""
-    back = normal * 0.08
-    b.prism(np.array([p0, p1, p1 + back, p0 + back]), 0.45, 0.75, steel, GUARDRAIL)
-    d = (p1 - p0) / max(float(np.linalg.norm(p1 - p0)), 1e-6)
-    post = p0 + normal * 0.13 + d * 0.1
-    b.prism(rect(post, math.atan2(d[1], d[0]), 0.12, 0.1), 0.0, 0.7, steel * np.float32(0.8), GUARDRAIL)
+def guard_rail(b: SolidBuilder, steel, p: np.ndarray, n: np.ndarray, posts: np.ndarray, post_n: np.ndarray) -> None:
+    """A W-beam along the polyline ``p`` (K, 2) (its road-side face; ``n`` (K, 2)
+    the outward normals there), one straight piece between consecutive points, and
+    a post behind the beam at each point of ``posts`` (P, 2) (normals ``post_n``)."""
+    back = n * 0.08
+    for k in range(len(p) - 1):
+        fp = np.array([p[k], p[k + 1], p[k + 1] + back[k + 1], p[k] + back[k]])
+        b.prism(fp, 0.45, 0.75, steel, GUARDRAIL)
+    for at, nk in zip(posts, post_n):
+        heading = math.atan2(-nk[0], nk[1])
+        b.prism(rect(at + nk * 0.14, heading, 0.12, 0.1), 0.0, 0.7, steel * np.float32(0.8), GUARDRAIL)
 
 
 def overpass(

@@ -100,6 +100,12 @@ class RoadIndex:
                 base = np.column_stack([s, np.full_like(s, side * (_STRAIGHT_HALF_M - 1.0))])
                 recs.append(self._records(0, side, s, base, np.zeros_like(s), side, 0, 0.0))
         chain, offset = self._chains()
+        self._chain_of = {}  # chain -> (start offsets, lane indices), sorted by offset
+        for root in sorted(set(chain)):
+            ks = sorted((offset[k], k) for k in range(len(self.lanes)) if chain[k] == root)
+            self._chain_of[root] = (np.array([o for o, _ in ks]), [k for _, k in ks])
+        self._step = [float(lane.length) / (max(2, int(math.ceil(float(lane.length) / EDGE_STEP_M)) + 1) - 1)
+                      for lane in self.lanes]  # fmt: skip
         for k, lane in enumerate(self.lanes):
             n = max(2, int(math.ceil(float(lane.length) / EDGE_STEP_M)) + 1)
             s = np.linspace(0.0, float(lane.length), n)
@@ -159,6 +165,62 @@ class RoadIndex:
         keep = self.distance(probe, reach=offset_m + 10.0) >= offset_m - 0.3
         e = e[keep]
         return e[np.lexsort((e[:, 2], e[:, 1], e[:, 0]))]
+
+    def step(self, k: int) -> float:
+        """Spacing (m) of lane ``k``'s edge samples (at most :data:`EDGE_STEP_M`)."""
+        return self._step[k] if self.lanes else EDGE_STEP_M
+
+    def chain_end(self, chain: int) -> float:
+        """Arc length (m) at which ``chain`` ends (infinite for the straight road)."""
+        if not self.lanes:
+            return math.inf
+        offsets, ks = self._chain_of[chain]
+        return float(offsets[-1]) + float(self.lanes[ks[-1]].length)
+
+    def chain_points(self, chain: int, side: int, sg, off: float) -> tuple[np.ndarray, np.ndarray]:
+        """Points ``off`` m beyond the ``side`` edge of ``chain`` at arc lengths ``sg``
+        (N,) along it (clamped to the chain), and the outward normals there, (N, 2)
+        each. Edge samples of the same chain and side lie on these lines."""
+        sg = np.atleast_1d(np.asarray(sg, dtype=float))
+        if not self.lanes:
+            xy = np.column_stack([sg, np.full(len(sg), side * (_STRAIGHT_HALF_M - 1.0 + off))])
+            return xy, np.tile([0.0, float(side)], (len(sg), 1))
+        offsets, ks = self._chain_of[chain]
+        idx = np.clip(np.searchsorted(offsets, sg, side="right") - 1, 0, len(ks) - 1)
+        xy, nrm = np.empty((len(sg), 2)), np.empty((len(sg), 2))
+        for q in np.unique(idx).tolist():
+            sel = idx == q
+            lane = self.lanes[ks[q]]
+            s = np.clip(sg[sel] - offsets[q], 0.0, float(lane.length))
+            half = float(lane.width_at(0.0)) / 2.0
+            xy[sel] = lane_positions(lane, s, side * (half + off))
+            a = lane_positions(lane, s, 0.0)
+            b = lane_positions(lane, s + 0.5, 0.0)
+            h = np.arctan2(b[:, 1] - a[:, 1], b[:, 0] - a[:, 0])
+            nrm[sel] = np.column_stack([-np.sin(h), np.cos(h)]) * side
+        return xy, nrm
+
+    def polyline(
+        self, chain: int, side: int, t0: float, t1: float, off: float, tol: float = 0.05
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The line ``off`` m beyond an edge from arc length ``t0`` to ``t1`` as 1, 2
+        or 4 straight pieces, the fewest that stay within ``tol`` m of it: points and
+        outward normals (K, 2), arc lengths (K,)."""
+        ts = np.linspace(t0, t1, 5)
+        pts, nrm = self.chain_points(chain, side, ts, off)
+
+        def dev(a: int, c: int, mids: list[int]) -> float:
+            d = pts[c] - pts[a]
+            v = pts[mids] - pts[a]
+            return float(np.abs(d[0] * v[:, 1] - d[1] * v[:, 0]).max() / max(float(np.hypot(*d)), 1e-9))
+
+        if dev(0, 4, [1, 2, 3]) < tol:
+            idx = [0, 4]
+        elif max(dev(0, 2, [1]), dev(2, 4, [3])) < tol:
+            idx = [0, 2, 4]
+        else:
+            idx = [0, 1, 2, 3, 4]
+        return pts[idx], nrm[idx], ts[idx]
 
     def lane_length(self, k: int) -> float:
         """Length of lane ``k`` (m; infinite for the default straight road)."""

@@ -16,7 +16,7 @@ from scipy.spatial import ConvexHull
 
 from simroad.camera.mesh import MAX_VERTICES, Mesh
 
-__all__ = ["CANOPY_TEMPLATES", "SolidBuilder", "rect"]
+__all__ = ["CANOPY_TEMPLATES", "SolidBuilder", "outline", "rect"]
 
 
 def rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.ndarray:
@@ -26,17 +26,26 @@ def rect(centre: np.ndarray, heading: float, length: float, width: float) -> np.
     return np.array([centre + f - r, centre + f + r, centre - f + r, centre - f - r])
 
 
+def outline(poly: np.ndarray, step: float = 2.0) -> np.ndarray:
+    """Points every ``step`` m or less around a polygon (K, 2), and its centre."""
+    out = [poly.mean(axis=0)[None]]
+    for a, c in zip(poly, np.roll(poly, -1, axis=0)):
+        n = max(1, math.ceil(float(np.hypot(*(c - a))) / step))
+        out.append(a + np.linspace(0.0, 1.0, n, endpoint=False)[:, None] * (c - a))
+    return np.vstack(out)
+
+
 def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """Unit canopy polyhedra (vertices (V, 3), triangle/face index lists).
 
-    ``round``: hulls of 8-9 points spread on a unit sphere (12-14 faces), the
-    crowns of deciduous trees; ``cone``: a conifer, an apex over a ring of 7 points
-    (8 faces), base at z = 0 and apex at z = 1. Fixed at import (their own seed),
+    ``round``: hulls of 7 points spread on a unit sphere (10 faces), the
+    crowns of deciduous trees; ``cone``: a conifer, an apex over a ring of 6 points
+    (7 faces), base at z = 0 and apex at z = 1. Fixed at import (their own seed),
     so every world shares them and per-tree draws only scale and turn them.
     """
     rng = np.random.default_rng(20261201)
     out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"round": [], "cone": []}
-    for n in (8, 8, 9, 9, 9, 8):
+    for n in (7, 7, 7, 7, 7, 7):
         golden = np.pi * (3.0 - math.sqrt(5.0))
         k = np.arange(n) + 0.5
         z = 1.0 - 2.0 * k / n
@@ -45,10 +54,10 @@ def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
         v = np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) * rng.uniform(0.85, 1.0, (n, 1))
         out["round"].append((v, ConvexHull(v).simplices))
     for _ in range(4):
-        phi = np.sort(np.linspace(0, 2 * np.pi, 7, endpoint=False) + rng.uniform(-0.2, 0.2, 7))
-        ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(7)]) * rng.uniform(0.85, 1.0, (7, 1))
+        phi = np.sort(np.linspace(0, 2 * np.pi, 6, endpoint=False) + rng.uniform(-0.2, 0.2, 6))
+        ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(6)]) * rng.uniform(0.85, 1.0, (6, 1))
         v = np.vstack([ring, [[0.0, 0.0, 1.0]]])
-        faces = [np.array([k, (k + 1) % 7, 7]) for k in range(7)] + [np.arange(7)[::-1]]
+        faces = [np.array([k, (k + 1) % 6, 6]) for k in range(6)] + [np.arange(6)[::-1]]
         out["cone"].append((v, np.array(faces, dtype=object)))
     return out
 
@@ -58,7 +67,14 @@ CANOPY_TEMPLATES = _canopy_templates()
 
 
 class SolidBuilder:
-    """Accumulates convex solids and decals; :meth:`mesh` finishes them."""
+    """Accumulates convex solids and decals; :meth:`mesh` finishes them.
+
+    Solids belong to *objects* (a tree: trunk and crown; a building and its
+    windows): :meth:`begin` opens one with its placement ``rank`` (lower ranks are
+    placed first, see :mod:`simroad.camera.scenery`) and an optional ``group`` (the
+    pieces of one guard rail or wall run share one). ``solid_object``,
+    ``solid_crown``, ``object_rank`` and ``object_group`` describe them.
+    """
 
     def __init__(self) -> None:
         self._verts: list[np.ndarray] = []
@@ -67,9 +83,32 @@ class SolidBuilder:
         self._solid: list[int] = []
         self._decal: list[bool] = []
         self._next = 0
+        self.solid_object: list[int] = []
+        self.solid_crown: list[bool] = []
+        self.object_rank: list[int] = []
+        self.object_group: list[int] = []
+
+    def begin(self, rank: int, group: int = -1) -> int:
+        """Open a new object (every later solid belongs to it); returns its index."""
+        self.object_rank.append(int(rank))
+        self.object_group.append(int(group))
+        return len(self.object_rank) - 1
 
     def __len__(self) -> int:
         return len(self._verts)
+
+    def keep_within(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        """Drop every object with a corner outside the ground box ``lo``-``hi`` (2,)
+        (its solids stay numbered, without faces)."""
+        bad = {
+            self.solid_object[s]
+            for v, s in zip(self._verts, self._solid)
+            if (v[:, :2] < lo).any() or (v[:, :2] > hi).any()
+        }
+        if bad:
+            keep = [self.solid_object[s] not in bad for s in self._solid]
+            for name in ("_verts", "_albedo", "_material", "_solid", "_decal"):
+                setattr(self, name, [x for x, k in zip(getattr(self, name), keep) if k])
 
     def _face(self, verts: np.ndarray, albedo, material: int, solid: int, decal: bool = False) -> None:
         self._verts.append(np.asarray(verts, dtype=float))
@@ -78,7 +117,11 @@ class SolidBuilder:
         self._solid.append(solid)
         self._decal.append(decal)
 
-    def new_solid(self) -> int:
+    def new_solid(self, *, crown: bool = False) -> int:
+        if not self.object_rank:
+            self.begin(0)
+        self.solid_object.append(len(self.object_rank) - 1)
+        self.solid_crown.append(crown)
         self._next += 1
         return self._next - 1
 
@@ -108,9 +151,10 @@ class SolidBuilder:
             self._face(np.array([lo[a], lo[b], hi[b], hi[a]]), albedo, material, sid)
         return sid
 
-    def polyhedron(self, verts: np.ndarray, faces, albedo, material: int) -> int:
-        """A convex polyhedron from vertices (V, 3) and its faces' vertex indices."""
-        sid = self.new_solid()
+    def polyhedron(self, verts: np.ndarray, faces, albedo, material: int, *, crown: bool = False) -> int:
+        """A convex polyhedron from vertices (V, 3) and its faces' vertex indices
+        (``crown``: a tree crown, which may overlap other trees' crowns)."""
+        sid = self.new_solid(crown=crown)
         for f in faces:
             self._face(verts[np.asarray(f, dtype=int)], albedo, material, sid)
         return sid

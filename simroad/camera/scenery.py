@@ -7,9 +7,11 @@ anchor point. Two kinds of placement:
 
 * **along the road** -- the road's outer edge lines (:mod:`._scenery_road`) are
   cut into stretches of ``STRETCH_M``; each stretch of each edge decides from its
-  own generator (seeded by ``(seed, lane, side, stretch)``, so a run continues
+  own generator (seeded by ``(seed, chain, side, stretch)``, so a run continues
   across cells) whether it carries a guard rail, a wall, a line of street lights,
-  a row of town facades or street trees;
+  a row of town facades or street trees, laid out at fixed arc lengths along the
+  edge (rails and walls in 12 m slots of as few straight pieces as follow the
+  curve, facades abutting along the road's normals);
 * **scattered** -- trees (partly in clumps), houses and signs at Poisson-drawn
   points at a distance from the road typical of their kind; overpasses cross the
   road at a random edge sample.
@@ -19,6 +21,13 @@ street trees and lamp posts at its kerb side): every solid reaching below :data:
 (3 m) is accepted only if all its ground corners are at least ``shoulder_m`` (plus
 the sidewalk in towns) from every lane surface. Only overpass decks, street-light
 arms and the crowns of street trees, all higher, reach over it.
+
+No two objects intersect (tree crowns excepted, which overlap as canopies do): the
+painter's visibility order is exact only for disjoint convex solids. Each cell's
+draws are its *candidates*; a candidate gives way to any intersecting candidate of
+higher priority (:data:`RANK`, then cell and order of drawing) within the cells
+its reach allows (:mod:`._scenery_conflicts`), so a cell stays a pure function of
+the seed and its index. No object reaches more than ``_MARGIN_M`` beyond its cell.
 
 Densities per profile are :data:`PROFILES` (per km of road edge, per stretch);
 ``density`` scales them (0 = nothing, 1 = the profile's, up to 5).
@@ -34,16 +43,30 @@ import numpy as np
 
 from simroad._validation import check_choice, check_in_range
 from simroad.camera import _scenery_kinds as kinds
-from simroad.camera._scenery_road import EDGE_STEP_M, RoadIndex
-from simroad.camera._scenery_solids import SolidBuilder, rect
+from simroad.camera._scenery_conflicts import Candidates, kept_objects
+from simroad.camera._scenery_road import RoadIndex
+from simroad.camera._scenery_solids import SolidBuilder, outline, rect
 from simroad.camera.materials import draw_albedo
 from simroad.camera.mesh import Mesh
 
-__all__ = ["HIGH_M", "PROFILES", "STRETCH_M", "Scenery", "SceneryProfile"]
+__all__ = ["HIGH_M", "PROFILES", "RANK", "STRETCH_M", "Scenery", "SceneryProfile"]
 
 #: Length of the road-edge stretches that decide rails, walls, lights, facades, m.
 STRETCH_M = 120.0
-_MARGIN_M = 45.0  # largest reach of an object beyond its anchor's cell (overpass decks), m
+_MARGIN_M = 40.0  # largest reach of an object beyond its anchor's cell, m (farther: dropped)
+_SLOT_M = 12.0  # guard rails and walls are laid out in slots of this length, m
+#: Placement priority of each kind (lower first): along-road objects, then scattered.
+RANK = {
+    "overpass": 0,
+    "facade": 1,
+    "wall": 2,
+    "rail": 3,
+    "light": 4,
+    "street_tree": 5,
+    "house": 6,
+    "sign": 7,
+    "tree": 8,
+}
 #: Solids whose lowest point is at least this high (m) may reach over the road and
 #: its shoulder (overpass decks, light arms, street-tree crowns); none lower does.
 HIGH_M = 3.0
@@ -128,24 +151,40 @@ class Scenery:
         self.seed = int(seed)
         self.max_cells = int(max_cells)
         self.road = RoadIndex(shapes, self.cell_m)
-        self._cells: OrderedDict[tuple[int, int], Mesh] = OrderedDict()
+        self._hood = math.ceil(2 * _MARGIN_M / self.cell_m)  # cells whose objects may meet
+        self._cells: OrderedDict[tuple[int, int], tuple[Mesh, np.ndarray, np.ndarray]] = OrderedDict()
+        self._cands: OrderedDict[tuple[int, int], Candidates] = OrderedDict()
         self._last: tuple[tuple[int, int, int, int] | None, Mesh] = (None, Mesh.empty())
 
     # ------------------------------------------------------------------ API
+    def _keys(self, xmin: float, ymin: float, xmax: float, ymax: float) -> list[tuple[int, int]]:
+        c, m = self.cell_m, _MARGIN_M
+        i0, j0 = math.floor((xmin - m) / c), math.floor((ymin - m) / c)
+        i1, j1 = math.floor((xmax + m) / c), math.floor((ymax + m) / c)
+        return [(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]
+
     def meshes(self, xmin: float, ymin: float, xmax: float, ymax: float) -> Mesh:
         """Every solid that may reach into the world box (metres), as one mesh."""
-        c, m = self.cell_m, _MARGIN_M
-        key = (
-            math.floor((xmin - m) / c),
-            math.floor((ymin - m) / c),
-            math.floor((xmax + m) / c),
-            math.floor((ymax + m) / c),
-        )
+        keys = self._keys(xmin, ymin, xmax, ymax)
+        key = (*keys[0], *keys[-1])
         if self._last[0] != key:
-            i0, j0, i1, j1 = key
-            parts = [self.cell(i, j) for i in range(i0, i1 + 1) for j in range(j0, j1 + 1)]
-            self._last = (key, Mesh.concat(parts))
+            self._last = (key, Mesh.concat([self.cell(*k) for k in keys]))
         return self._last[1]
+
+    def solid_objects(self, xmin: float, ymin: float, xmax: float, ymax: float) -> tuple[np.ndarray, np.ndarray]:
+        """For each solid id of ``meshes(box)``: its object's key (int64; the pieces
+        of one guard rail or wall run share one) and whether it is a tree crown."""
+        keys, crowns = [], []
+        for k in self._keys(xmin, ymin, xmax, ymax):
+            mesh = self.cell(*k)
+            if len(mesh):
+                _, key, crown = self._cells[k]
+                n = int(mesh.solid.max()) + 1
+                keys.append(key[:n])
+                crowns.append(crown[:n])
+        if not keys:
+            return np.zeros(0, np.int64), np.zeros(0, bool)
+        return np.concatenate(keys), np.concatenate(crowns)
 
     def cell(self, i: int, j: int) -> Mesh:
         """The solids anchored in world cell (i, j) (cached; a pure function of the
@@ -154,11 +193,36 @@ class Scenery:
         hit = self._cells.get(key)
         if hit is not None:
             self._cells.move_to_end(key)
-            return hit
-        out = self._build(i, j)
-        self._cells[key] = out
+            return hit[0]
+        own = self._candidates(i, j)
+        r = self._hood
+        hood = [self._candidates(i + a, j + b) for a in range(-r, r + 1) for b in range(-r, r + 1)]
+        keep = kept_objects(own, hood)
+        out = own.mesh.select(keep[own.mesh.solid])
+        self._cells[key] = (out, own.key, own.crown)
         if len(self._cells) > self.max_cells:
             self._cells.popitem(last=False)
+        return out
+
+    def _candidates(self, i: int, j: int) -> Candidates:
+        """Every object the cell's draws propose, before giving way to others."""
+        key = (i, j)
+        hit = self._cands.get(key)
+        if hit is not None:
+            self._cands.move_to_end(key)
+            return hit
+        b = SolidBuilder()
+        if self.density > 0.0:
+            rng = np.random.default_rng([self.seed, i + 2**31, j + 2**31])
+            self._along_road(b, i, j)
+            self._scatter(b, rng, i, j)
+            self._overpass(b, rng, i, j)
+            c = self.cell_m
+            b.keep_within(np.array([i * c, j * c]) - _MARGIN_M, np.array([i * c + c, j * c + c]) + _MARGIN_M)
+        out = Candidates.build(b, ((i + 2**15) % 2**16) << 16 | ((j + 2**15) % 2**16))
+        self._cands[key] = out
+        if len(self._cands) > 4 * self.max_cells:
+            self._cands.popitem(last=False)
         return out
 
     # ------------------------------------------------------------ placement
@@ -173,87 +237,105 @@ class Scenery:
         """All ground points (N, 2) at least shoulder + ``extra`` from every lane."""
         return bool((self.road.distance(pts, reach=self.shoulder_m + extra + 5.0) >= self.shoulder_m + extra).all())
 
-    def _build(self, i: int, j: int) -> Mesh:
-        if self.density == 0.0:
-            return Mesh.empty()
-        b = SolidBuilder()
-        rng = np.random.default_rng([self.seed, i + 2**31, j + 2**31])
-        self._along_road(b, i, j)
-        self._scatter(b, rng, i, j)
-        self._overpass(b, rng, i, j)
-        return b.mesh()
-
-    def _stretch_rng(self, lane: int, side: int, k: int, what: int) -> np.random.Generator:
-        return np.random.default_rng([self.seed, 1 + what, lane, side + 1, k + 2**31])
+    def _rng(self, chain: int, side: int, at: float, what: int) -> np.random.Generator:
+        """The generator of the object ``what`` at arc length ``at`` along a chain's edge."""
+        return np.random.default_rng([self.seed, 1 + what, chain, side + 1, int(round(at * 8.0)) + 2**40])
 
     def _along_road(self, b: SolidBuilder, i: int, j: int) -> None:
-        """Rails, walls, light lines, facades and street trees of the cell's edges."""
-        p, sh, sw = self.profile, self.shoulder_m, self.sidewalk_m
-        e = self.road.edge_samples(i, j, sh + sw + 0.5)
-        for row_k, row in enumerate(e):
-            lane, side, s = int(row[0]), int(row[1]), float(row[2])
-            chain, sg = int(row[8]), float(row[9])  # stretches run along the lane chain
-            base, normal = row[3:5], row[6:8]
-            nxt = e[min(row_k + 1, len(e) - 1)]
-            same = row_k + 1 < len(e) and nxt[0] == lane and nxt[1] == side
-            joined = same and abs(nxt[2] - s - EDGE_STEP_M) < 1.0
-            k = int(sg // STRETCH_M)
-            st = self._stretch_rng(chain, side, k, 0)
-            u = st.random(6)
-            if joined and u[0] < self._p(p.rail_p) and sw == 0.0:
-                p0, p1 = base + normal * (sh + 0.25), nxt[3:5] + nxt[6:8] * (sh + 0.25)
-                if self._clear(np.array([p0, p1]), 0.2):
-                    kinds.guard_rail(b, draw_albedo("galvanised_steel", st), p0, p1, normal)
-            if joined and u[1] < self._p(p.wall_p):  # behind a rail, if there is one
-                off = sh + sw + 1.0 + 2.0 * u[2]
-                p0, p1 = base + normal * off, nxt[3:5] + nxt[6:8] * off
-                if self._clear(np.array([p0, p1]), sw + 0.9):
-                    brick = ("concrete", "brick")[int(u[3] < 0.3)]
-                    kinds.wall(b, draw_albedo(brick, st), p0, p1, normal, 2.0 + 2.0 * u[4])
+        """Rails, walls, lights, facades and street trees along the cell's edge
+        samples: each sample owns the slots starting in ``[sg, sg + step)``."""
+        e = self.road.edge_samples(i, j, self.shoulder_m + self.sidewalk_m + 0.5)
+        for row in e:
+            lane, side, s, chain, sg = int(row[0]), int(row[1]), float(row[2]), int(row[8]), float(row[9])
             if s >= self.road.lane_length(lane) - 1e-6:
                 continue  # a lane's last sample: the next lane of the chain starts here
-            self._point_objects(b, row, u[5], k)
+            end = sg + self.road.step(lane)
+            for k in sorted({math.floor(sg / STRETCH_M), math.floor((end - 1e-9) / STRETCH_M)}):
+                lo, hi = max(sg, k * STRETCH_M), min(end, (k + 1) * STRETCH_M, self.road.chain_end(chain))
+                if hi > lo:
+                    self._stretch(b, chain, side, k, lo, hi)
 
-    def _point_objects(self, b: SolidBuilder, row: np.ndarray, u_light: float, k: int) -> None:
-        """Street lights, street trees and facades at one edge sample."""
+    def _stretch(self, b: SolidBuilder, chain: int, side: int, k: int, lo: float, hi: float) -> None:
+        """The along-road objects of stretch ``k`` whose slots start in ``[lo, hi)``."""
         p, sh, sw = self.profile, self.shoulder_m, self.sidewalk_m
-        side, chain, sg = int(row[1]), int(row[8]), float(row[9])
-        base, heading, normal = row[3:5], float(row[5]), row[6:8]
-        at_s = sg - k * STRETCH_M  # position within the stretch
-        key = int(round(sg / EDGE_STEP_M))  # this sample along the chain
-        if u_light < self._p(p.lights_p):
-            spacing = float(self._stretch_rng(chain, side, k, 1).uniform(28.0, 42.0))
-            if at_s % spacing < EDGE_STEP_M:
-                lrng = self._stretch_rng(chain, side, key, 2)
-                at = base + normal * (sh + (0.6 if sw > 0 else 0.8 + 0.8 * lrng.random()))
-                if self._clear(at[None], 0.3):
-                    steel = draw_albedo("galvanised_steel", self._stretch_rng(chain, side, k, 3))
-                    arm = lrng.random() < p.light_arm_p
-                    kinds.street_light(b, lrng, at, -normal, steel, arm=arm)
-        if sw > 0 and self._stretch_rng(chain, side, k, 4).random() < self._p(p.street_trees_p):
-            spacing = float(self._stretch_rng(chain, side, k, 5).uniform(9.0, 15.0))
-            if (at_s + 5.0) % spacing < EDGE_STEP_M:
-                trng = self._stretch_rng(chain, side, key, 6)
-                r = kinds.tree_radius("round", trng.random() * 0.4)
-                kinds.tree(b, trng, base + normal * (sh + 0.7), "round", r, crown_bottom_m=HIGH_M)
-        if sw > 0 and self._stretch_rng(chain, side, k, 7).random() < self._p(p.facade_p):
-            self._facade(b, chain, side, key, base, heading, normal)
+        st = np.random.default_rng([self.seed, 1, chain, side + 1, k + 2**40])
+        u = st.random(12)
+        s0 = k * STRETCH_M
 
-    def _facade(self, b: SolidBuilder, chain: int, side: int, key: int, base, heading, normal) -> None:
-        """A town building whose frontage starts at edge sample ``key`` of its chain:
-        frontages of 12 m follow one another along the stretch without gaps."""
-        frng = self._stretch_rng(chain, side, key, 8)
-        if key % 3:  # a frontage every 3 samples (12 m)
+        def starts(first: float, pitch: float) -> list[float]:
+            m = max(math.ceil((lo - s0 - first) / pitch - 1e-9), 0)
+            out = []
+            while s0 + first + pitch * m < hi:
+                out.append(s0 + first + pitch * m)
+                m += 1
+            return out
+
+        group = (chain * 4 + side + 1) * 8
+        if u[0] < self._p(p.rail_p) and sw == 0.0:
+            steel = draw_albedo("galvanised_steel", st)
+            for t in starts(0.0, _SLOT_M):
+                self._rail(b, chain, side, t, steel, group + 1)
+        if u[1] < self._p(p.wall_p):
+            brick = draw_albedo(("concrete", "brick")[int(u[3] < 0.3)], st)
+            off, height = sh + sw + 2.0 + 2.0 * u[2], 2.0 + 2.0 * u[4]
+            for t in starts(0.0, _SLOT_M):
+                pts, nrm, _ = self._run(chain, side, t, off)
+                if self._clear(pts, sw + 1.5):
+                    b.begin(RANK["wall"], group + 2)
+                    for q in range(len(pts) - 1):
+                        fp = np.array([pts[q], pts[q + 1], pts[q + 1] + 0.3 * nrm[q + 1], pts[q] + 0.3 * nrm[q]])
+                        kinds.wall(b, brick, fp, height)
+        if u[5] < self._p(p.lights_p):
+            spacing, steel = 28.0 + 14.0 * u[6], draw_albedo("galvanised_steel", st)
+            for t in starts(spacing / 2, spacing):
+                lrng = self._rng(chain, side, t, 2)
+                off = sh + (0.45 if sw > 0 else 0.8 + 0.8 * lrng.random())
+                at, nrm = self.road.chain_points(chain, side, [t], off)
+                if self._clear(at, 0.3):
+                    b.begin(RANK["light"])
+                    kinds.street_light(b, lrng, at[0], -nrm[0], steel, arm=lrng.random() < p.light_arm_p)
+        if sw >= 2.5 and u[7] < self._p(p.street_trees_p):
+            spacing = 9.0 + 6.0 * u[8]
+            for t in starts(spacing * 0.3, spacing):
+                trng = self._rng(chain, side, t, 6)
+                at, _ = self.road.chain_points(chain, side, [t], sh + 0.7)
+                r = min(kinds.tree_radius("round", trng.random() * 0.4), sw - 0.6)
+                if self._clear(at, 0.5):
+                    b.begin(RANK["street_tree"])
+                    kinds.tree(b, trng, at[0], "round", r, crown_bottom_m=HIGH_M)
+        if sw > 0 and u[9] < self._p(p.facade_p):
+            width = STRETCH_M / (6 + int(u[10] * 7))  # 9-20 m frontages, no gaps
+            for t in starts(0.0, width):
+                self._facade(b, chain, side, t, min(t + width, self.road.chain_end(chain)))
+
+    def _run(self, chain: int, side: int, t: float, off: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The slot from ``t`` as a polyline ``off`` m beyond the edge (see
+        :meth:`RoadIndex.polyline`)."""
+        return self.road.polyline(chain, side, t, min(t + _SLOT_M, self.road.chain_end(chain)), off)
+
+    def _rail(self, b: SolidBuilder, chain: int, side: int, t: float, steel, group: int) -> None:
+        """One slot of a guard rail: the beam and posts every 6 m."""
+        pts, nrm, ts = self._run(chain, side, t, self.shoulder_m + 0.25)
+        if not self._clear(pts, 0.2):
             return
-        front = 3 * EDGE_STEP_M
+        at = [s for s in (t, t + 6.0) if s < ts[-1] - 1.0]
+        pp, pn = self.road.chain_points(chain, side, at, self.shoulder_m + 0.25)
+        b.begin(RANK["rail"], group)
+        kinds.guard_rail(b, steel, pts, nrm, pp, pn)
+
+    def _facade(self, b: SolidBuilder, chain: int, side: int, t0: float, t1: float) -> None:
+        """A town building with the frontage from ``t0`` to ``t1`` along its chain,
+        sides along the road's normals (neighbours abut exactly)."""
+        frng = self._rng(chain, side, t0, 8)
         depth = frng.uniform(9.0, 16.0)
         back = self.shoulder_m + self.sidewalk_m + 0.2
-        centre = base + normal * (back + depth / 2) + np.array([math.cos(heading), math.sin(heading)]) * front / 2
-        corners = rect(centre, heading, front, depth)
-        if not self._clear(np.vstack([corners, centre[None]]), self.sidewalk_m + 0.1):
+        front, _ = self.road.chain_points(chain, side, [t0, t1], back)
+        rear, _ = self.road.chain_points(chain, side, [t0, t1], back + depth)
+        fp = np.array([front[0], front[1], rear[1], rear[0]])
+        if float(np.hypot(*(front[1] - front[0]))) < 5.0 or not self._clear(outline(fp), self.sidewalk_m + 0.1):
             return
-        floors = int(frng.integers(2, 7))
-        kinds.building(b, frng, centre, heading, front, depth, floors, shop_front=True)
+        b.begin(RANK["facade"])
+        kinds.building(b, frng, fp, int(frng.integers(2, 7)), shop_front=True)
 
     def _scatter(self, b: SolidBuilder, rng: np.random.Generator, i: int, j: int) -> None:
         """Trees (single or in clumps), houses and signs at random points."""
@@ -262,19 +344,17 @@ class Scenery:
         # Rates per km of road edge over a band ~25 m wide: per m^2 = rate / 25e3.
         area = c * c / 25_000.0
         sw = self.sidewalk_m
-        placed: list[tuple[np.ndarray, float, float, float]] = []  # houses: centre, heading, half sizes
         for _ in range(rng.poisson(self._rate(p.houses_per_km) * area)):
             at = box + rng.random(2) * c
             near = self.road.nearest(at)
             if near is None:
                 continue
             heading, _ = near
-            front, depth = rng.uniform(8.0, 16.0), rng.uniform(7.0, 12.0)
-            corners = rect(at, heading, front, depth)
+            fp = rect(at, heading, rng.uniform(8.0, 16.0), rng.uniform(7.0, 12.0))
             d = self.road.distance(at[None], reach=40.0)[0]
-            if d < 35.0 and self._clear(np.vstack([corners, at[None]]), sw + 4.0):
-                kinds.building(b, rng, at, heading, front, depth, int(rng.integers(1, 4)))
-                placed.append((at, heading, front / 2 + 0.5, depth / 2 + 0.5))
+            if d < 35.0 and self._clear(outline(fp), sw + 4.0):
+                b.begin(RANK["house"])
+                kinds.building(b, rng, fp, int(rng.integers(1, 4)))
         pts, shape, radius = [], [], []
         for _ in range(rng.poisson(self._rate(p.trees_per_km) * area)):
             at = box + rng.random(2) * c
@@ -290,21 +370,19 @@ class Scenery:
             ring = (P[:, None, :] + R[:, None, None] * _RING[None]).reshape(-1, 2)
             d = self.road.distance(np.vstack([P, ring]), reach=40.0)
             ok = (d[:n] < 30.0) & (d[n:].reshape(n, len(_RING)).min(axis=1) >= self.shoulder_m + sw + 0.5)
-            for at, heading, hx, hy in placed:  # no crown in a house's walls
-                rel = P - at
-                lx = np.abs(rel @ np.array([math.cos(heading), math.sin(heading)]))
-                ly = np.abs(rel @ np.array([-math.sin(heading), math.cos(heading)]))
-                ok &= (lx > hx + R) | (ly > hy + R)
             for k in np.flatnonzero(ok).tolist():
+                b.begin(RANK["tree"])
                 kinds.tree(b, rng, P[k], shape[k], float(R[k]))
         n_signs = rng.poisson(self._rate(p.signs_per_km) * c / 1000.0)
         e = self.road.edge_samples(i, j, self.shoulder_m + 0.8) if n_signs else np.zeros((0, 10))
         for _ in range(n_signs if len(e) else 0):
             row = e[int(rng.integers(len(e)))]
-            # Beside the road, or at the kerb side of a sidewalk (facades stand behind it).
-            off = self.shoulder_m + (rng.uniform(0.3, 0.6) if sw > 0 else rng.uniform(0.5, 1.5))
+            # Beside the road, or at the kerb side of a sidewalk (facades stand behind
+            # it); the plate (at most 1 m wide, across) never overhangs the shoulder.
+            off = self.shoulder_m + 0.6 + (rng.uniform(0.0, 0.3) if sw > 0 else rng.uniform(0.0, 1.0))
             at = row[3:5] + row[6:8] * off
-            if self._clear(at[None], 0.2):
+            if self._clear(at[None], 0.55):
+                b.begin(RANK["sign"])
                 kinds.sign(b, rng, at, float(row[5]) + np.pi, draw_albedo("galvanised_steel", rng))
 
     def _overpass(self, b: SolidBuilder, rng: np.random.Generator, i: int, j: int) -> None:
@@ -322,4 +400,5 @@ class Scenery:
         along = np.array([math.cos(heading), math.sin(heading)]) * 6.0
         pads = np.array([centre + normal * t + a for t in (ext[0] - 2.5, ext[1] + 2.5) for a in (along, -along)])
         if self._clear(pads, self.sidewalk_m + 1.0):
+            b.begin(RANK["overpass"])
             kinds.overpass(b, rng, centre, heading, ext[0], ext[1])

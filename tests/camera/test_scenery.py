@@ -160,3 +160,64 @@ def test_every_solid_stays_within_reach_of_its_cell(world):
             if len(v):
                 assert v[..., 0].min() >= i * c - _MARGIN_M and v[..., 0].max() <= (i + 1) * c + _MARGIN_M
                 assert v[..., 1].min() >= j * c - _MARGIN_M and v[..., 1].max() <= (j + 1) * c + _MARGIN_M
+
+
+def _separated(m, fa: np.ndarray, fb: np.ndarray) -> bool:
+    """Exact separating-axis test of two convex solids given by their faces ``fa``,
+    ``fb`` of mesh ``m``: face normals of either, and cross products of edges."""
+    ea, eb = _edges(m, fa), _edges(m, fb)
+    cross = np.cross(ea[:, None], eb[None]).reshape(-1, 3)
+    norm = np.linalg.norm(cross, axis=1)
+    ax = np.concatenate([m.normal[fa], m.normal[fb], cross[norm > 1e-9] / norm[norm > 1e-9, None]])
+    va, vb = m.vertices[fa].reshape(-1, 3), m.vertices[fb].reshape(-1, 3)
+    a, b = va @ ax.T, vb @ ax.T
+    gap = np.maximum(b.min(0) - a.max(0), a.min(0) - b.max(0))
+    return bool(gap.max() > -0.02)
+
+
+def _edges(m, faces: np.ndarray) -> np.ndarray:
+    """Distinct unit edge directions of the faces (padding repeats give none)."""
+    v = m.vertices[faces]
+    d = (np.roll(v, -1, axis=1) - v).reshape(-1, 3)
+    n = np.linalg.norm(d, axis=1)
+    d = d[n > 1e-6] / n[n > 1e-6, None]
+    return np.unique(np.round(d * np.where(d[:, :1] < 0, -1.0, 1.0), 5), axis=0)
+
+
+@pytest.mark.parametrize("scenario", ["racetrack", "highway", "winding", "town"])
+def test_no_two_objects_intersect(scenario):
+    """Over several worlds and dense scenery: solids of different objects (tree
+    crowns excepted among themselves) are disjoint convex solids, across cells."""
+    env = RoadCamEnv(scenario=scenario, width=64, height=48, traffic=False)
+    pairs = 0
+    for seed in range(4):
+        env.reset(seed=seed)
+        w = env.world
+        s = w.scenery
+        dense = Scenery(w.shapes, 100 + seed, profile=s.profile_name, density=2.0 + seed % 2,
+                        shoulder_m=s.shoulder_m, sidewalk_m=s.sidewalk_m)  # fmt: skip
+        x0, y0, x1, y1 = w.bounds()
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        box = (
+            (cx - 150, cy - 150, cx + 150, cy + 150)
+            if seed % 2
+            else (x0 - 5, y0 - 5, min(x1, x0 + 300), min(y1, y0 + 300))
+        )
+        m = dense.meshes(*box)
+        key, crown = dense.solid_objects(*box)
+        ids = np.unique(m.solid)
+        lo, hi = np.full((len(key), 3), np.inf), np.full((len(key), 3), -np.inf)
+        np.minimum.at(lo, m.solid, m.vertices.min(1))
+        np.maximum.at(hi, m.solid, m.vertices.max(1))
+        lo, hi = lo[ids], hi[ids]
+        near = ((lo[:, None] < hi[None] - 0.02) & (hi[:, None] > lo[None] + 0.02)).all(-1)
+        near &= key[ids][:, None] != key[ids][None]
+        near &= ~(crown[ids][:, None] & crown[ids][None])
+        for a, b in zip(*np.nonzero(np.triu(near, 1))):
+            fa, fb = np.flatnonzero(m.solid == ids[a]), np.flatnonzero(m.solid == ids[b])
+            ok = _separated(m, fa, fb)
+            where = m.vertices[fa].reshape(-1, 3).mean(0)
+            assert ok, (scenario, seed, set(m.material[fa].tolist()), set(m.material[fb].tolist()), where)
+            pairs += 1
+    env.close()
+    assert pairs > 20, pairs
