@@ -1,8 +1,10 @@
 """Ground truth agrees with highway-env's own lane geometry.
 
-For every sampled ground pixel, ``road_mask`` must equal "the ground point that
-``camera.image_to_ground`` gives lies on some lane", decided with highway-env's
-``lane.local_coordinates`` and ``lane.width_at``.
+For every sampled pixel that sees the ground (its material is a ground material:
+scenery and vehicles in front of the road hide it), ``road_mask`` must equal "the
+ground point that ``camera.image_to_ground`` gives lies on some lane", decided with
+highway-env's ``lane.local_coordinates`` and ``lane.width_at``; and no pixel that sees
+an object or the sky is road.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad.camera import VEHICLE
+from simroad.camera.world import IS_GROUND
 from simroad.envs import RoadCamEnv
 from simroad.experiments.rollout import autopilot_env_action
 
@@ -37,7 +39,8 @@ def test_road_mask_agrees_with_lane_geometry(scenario):
             if step:
                 for _ in range(4):
                     _obs, _, _term, _trunc, info = env.step(autopilot_env_action(env))
-            valid = env.camera.ground_valid & (info["material"] != VEHICLE)
+            assert not (info["road_mask"] & ~IS_GROUND[info["material"]]).any()  # objects hide the road
+            valid = env.camera.ground_valid & IS_GROUND[info["material"]]
             v, u = np.nonzero(valid)
             pick = rng.choice(len(u), size=400, replace=False)
             xy = env.camera.image_to_ground(np.column_stack([u[pick], v[pick]]).astype(float))
