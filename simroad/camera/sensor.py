@@ -76,6 +76,11 @@ class SensorParams:
         mid-tones keep their level and the highlights roll off.
     ae_rate : float
         Fraction of the log2 exposure error corrected per frame, in (0, 1].
+    ae_roi_top : float
+        Top of the metering window as a fraction of the image height, in [0, 1): the
+        auto-exposure meters the rows from there to the bottom. Automotive cameras
+        meter the road, not the sky, so the road is well exposed and a bright sky
+        saturates, as in dashcam footage; 0 meters the whole frame.
     ev_min, ev_max : float
         Limits of the auto-exposure in stops (EV) relative to the nominal exposure,
         ``ev_min`` in [-10, 0], ``ev_max`` in [0, 10]. The exposure time is
@@ -94,6 +99,11 @@ class SensorParams:
         Photon shot noise (Poisson, normal approximation: variance = signal in e-).
     read_noise_e : float
         Read noise standard deviation in electrons, in [0, 1000]; 0 turns it off.
+    white_balance_error : float
+        Standard deviation of the auto white balance's error, in [0, 0.5]: per
+        episode the red and blue gains relative to green are off by a factor
+        ``exp(N(0, error))`` each (AWB estimates from real scenes err by a few percent
+        to ~10 %: a frame is slightly warm or cool); 0 is a perfect white balance.
     vignetting : bool
         cos^n fall-off of the field angle.
     vignetting_exponent : float
@@ -110,6 +120,7 @@ class SensorParams:
     auto_exposure: bool = True
     ae_target_mean: float = 0.14
     ae_rate: float = 0.25
+    ae_roi_top: float = 0.5
     ev_min: float = -4.0
     ev_max: float = 4.0
     tone_shoulder: float = 1.0
@@ -118,6 +129,7 @@ class SensorParams:
     adc_bits: int = 12
     shot_noise: bool = True
     read_noise_e: float = 3.0
+    white_balance_error: float = 0.06
     vignetting: bool = True
     vignetting_exponent: float = 2.0
     motion_blur: bool = True
@@ -128,16 +140,18 @@ class SensorParams:
             "exposure_time_s": (0.0, 0.1, "s", False),
             "ae_target_mean": (0.0, 1.0, "", False),
             "ae_rate": (0.0, 1.0, "", False),
+            "ae_roi_top": (0.0, 1.0, "", True),
             "ev_min": (-10.0, 0.0, "EV", True),
             "ev_max": (0.0, 10.0, "EV", True),
             "tone_shoulder": (0.0, 20.0, "", True),
             "gamma": (0.2, 5.0, "", True),
             "full_well_e": (100.0, 1e6, "e-", True),
             "read_noise_e": (0.0, 1000.0, "e-", True),
+            "white_balance_error": (0.0, 0.5, "", True),
             "vignetting_exponent": (0.0, 8.0, "", True),
         }
         for name, (low, high, unit, low_inc) in ranges.items():
-            high_inc = name not in ("ae_target_mean",)
+            high_inc = name not in ("ae_target_mean", "ae_roi_top")
             value = check_in_range(
                 name, getattr(self, name), low, high, unit=unit, low_inclusive=low_inc, high_inclusive=high_inc
             )
@@ -157,6 +171,7 @@ class SensorParams:
             gamma=1.0,
             shot_noise=False,
             read_noise_e=0.0,
+            white_balance_error=0.0,
             vignetting=False,
             motion_blur=False,
             jpeg_quality=None,
@@ -169,6 +184,7 @@ class SensorParams:
         return (
             not any(effects)
             and self.read_noise_e == 0.0
+            and self.white_balance_error == 0.0
             and self.tone_shoulder == 0.0
             and self.gamma == 1.0
             and self.jpeg_quality is None
@@ -203,6 +219,7 @@ def apply_sensor(
     speed_m_s: float = 0.0,
     depth: np.ndarray | None = None,
     noise: NoiseTile | None = None,
+    white_balance: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """One frame through the sensor.
 
@@ -225,6 +242,9 @@ def apply_sensor(
     noise : NoiseTile, optional
         Pre-drawn normal field of this frame size (:class:`Sensor` keeps one per
         episode); without it the frame's normals are drawn from ``rng``.
+    white_balance : ndarray (3,), optional
+        The episode's white-balance gains (R, G, B), applied to the exposed signal;
+        neutral when None.
 
     Returns
     -------
@@ -254,8 +274,10 @@ def apply_sensor(
         signal = cv2.multiply(flat, vig, dst=flat, scale=gain * full)
     else:
         signal = np.multiply(flat, np.float32(gain * full), out=flat)
+    if white_balance is not None:
+        np.multiply(signal, np.tile(np.asarray(white_balance, np.float32), w)[None, :], out=signal)
     np.minimum(signal, np.float32(full), out=signal)  # the full well
-    measured = cv2.mean(signal)[0] / full
+    measured = cv2.mean(signal[int(params.ae_roi_top * h) :])[0] / full  # the metering window
     normal: np.ndarray | None = None
     sign = 1.0
     if params.shot_noise or params.read_noise_e > 0.0:
@@ -314,6 +336,10 @@ class Sensor:
         self._settled = not self.params.auto_exposure
         p, c = self.params, self.camera.config
         self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
+        self.white_balance: np.ndarray | None = None
+        if p.white_balance_error > 0.0:  # drawn after the noise field: that stream is unchanged
+            r, b = np.exp(rng.normal(0.0, p.white_balance_error, 2))
+            self.white_balance = np.array([r, 1.0, b], dtype=np.float32)
 
     def apply(self, rgb: np.ndarray, *, speed_m_s: float = 0.0, depth: np.ndarray | None = None) -> np.ndarray:
         """Expose one frame (uint8 RGB, H x W x 3) and adapt the exposure for the next."""
@@ -322,7 +348,8 @@ class Sensor:
         if not self._settled:
             # A camera settles its exposure before it streams: the first frame is
             # metered at the nominal exposure and exposed at the target.
-            measured = float(cv2.mean(srgb_to_linear(rgb).reshape(rgb.shape[0], -1))[0])
+            top = int(self.params.ae_roi_top * rgb.shape[0])
+            measured = float(cv2.mean(srgb_to_linear(rgb[top:]).reshape(rgb.shape[0] - top, -1))[0])
             self.ev = auto_exposure_update(0.0, min(measured, 1.0), dataclasses.replace(self.params, ae_rate=1.0))
             self._settled = True
         noise = (
@@ -331,7 +358,15 @@ class Sensor:
             else None
         )
         out, measured = apply_sensor(
-            rgb, self.params, self.camera, self._rng, ev=self.ev, speed_m_s=speed_m_s, depth=depth, noise=noise
+            rgb,
+            self.params,
+            self.camera,
+            self._rng,
+            ev=self.ev,
+            speed_m_s=speed_m_s,
+            depth=depth,
+            noise=noise,
+            white_balance=self.white_balance,
         )
         self.ev = auto_exposure_update(self.ev, measured, self.params)
         return out

@@ -122,6 +122,44 @@ def test_auto_exposure_settles_then_follows_a_step_at_its_rate():
     assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.03)
 
 
+@pytest.mark.parametrize("roi_top", [0.0, 0.5])
+def test_auto_exposure_meters_its_window(roi_top):
+    # Bright sky above, darker road below: metering the lower half exposes the road at
+    # the target and lets the sky saturate; metering all of it exposes the average.
+    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.18, adc_bits=16, ae_roi_top=roi_top)
+    sensor = Sensor(p, CAM)
+    sensor.reset(np.random.default_rng(0))
+    lin = np.full((48, 64, 3), 0.05, np.float32)
+    lin[:24] = 0.6
+    out = srgb_to_linear(sensor.apply(linear_to_srgb(lin)))
+    metered = out[int(roi_top * 48) :].mean()
+    assert float(metered) == pytest.approx(0.18, rel=0.03)
+    if roi_top:
+        assert float(out[:24].mean()) == pytest.approx(1.0, abs=0.01)  # the sky saturates
+
+
+def test_white_balance_is_drawn_per_episode_and_tints_the_frame():
+    p = dataclasses.replace(OFF, white_balance_error=0.1, adc_bits=16)
+    grey = linear_to_srgb(np.full((48, 64, 3), 0.2, np.float32))
+    gains = []
+    for seed in range(40):
+        sensor = Sensor(p, CAM)
+        sensor.reset(np.random.default_rng(seed))
+        wb = sensor.white_balance
+        assert wb is not None and wb[1] == 1.0
+        out = srgb_to_linear(sensor.apply(grey)).reshape(-1, 3).mean(axis=0)
+        np.testing.assert_allclose(out / out[1], wb, rtol=0.01)  # the frame carries the gains
+        gains.append(np.log(wb[[0, 2]]))
+    g = np.array(gains)
+    assert abs(g.mean()) < 0.05 and 0.06 < g.std() < 0.14  # log-gains ~ N(0, 0.1)
+    again = Sensor(p, CAM)
+    again.reset(np.random.default_rng(39))
+    np.testing.assert_array_equal(again.white_balance, wb)  # reproducible per seed
+    neutral = Sensor(dataclasses.replace(p, white_balance_error=0.0), CAM)
+    neutral.reset(np.random.default_rng(0))
+    assert neutral.white_balance is None
+
+
 def test_auto_exposure_stops_at_its_limits():
     p = dataclasses.replace(OFF, auto_exposure=True, ev_max=2.0, ae_rate=1.0)
     sensor = Sensor(p, CAM)
