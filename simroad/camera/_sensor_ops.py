@@ -2,8 +2,9 @@
 
 Each is a function of arrays and physical parameters (plus read-only caches keyed by
 the image geometry); :mod:`simroad.camera.sensor` composes them in physical order
-(see its docstring and docs/camera.md). Everything per pixel runs in float32 with
-OpenCV, so a 320x180 frame costs a fraction of a millisecond.
+(see its docstring and docs/camera.md). The frame itself goes through the fused
+compiled pass of :mod:`simroad.camera._sensor_kernel` from the exposure on (the
+OpenCV noise and response steps here are its reference); the motion blur runs here.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ __all__ = [
     "NoiseTile",
     "adc_response_lut",
     "add_noise_dn",
+    "inv_cos_bearing",
     "jpeg_roundtrip",
     "motion_blur_scale",
     "radial_motion_blur",
     "response_curve",
     "vignetting_gain",
+    "vignetting_map",
 ]
 
 
@@ -58,11 +61,19 @@ def vignetting_gain(
 
 @functools.lru_cache(maxsize=8)
 def _vignetting_gain(height: int, width: int, focal_px: float, cx: float, cy: float, exponent: float) -> np.ndarray:
+    gain = np.repeat(vignetting_map(height, width, focal_px, cx, cy, exponent)[:, :, None], 3, axis=2)
+    gain.flags.writeable = False
+    return gain
+
+
+@functools.lru_cache(maxsize=8)
+def vignetting_map(height: int, width: int, focal_px: float, cx: float, cy: float, exponent: float) -> np.ndarray:
+    """The single-channel cos^n map of :func:`vignetting_gain`, float32 (H, W), read-only, cached."""
     # One map per camera: computed once, shared read-only by every frame.
     v, u = np.mgrid[0:height, 0:width].astype(np.float64)
     r2 = (u - cx) ** 2 + (v - cy) ** 2
     f2 = focal_px * focal_px
-    gain = np.repeat(((f2 / (f2 + r2)) ** (exponent / 2.0)).astype(np.float32)[:, :, None], 3, axis=2)
+    gain = ((f2 / (f2 + r2)) ** (exponent / 2.0)).astype(np.float32)
     gain.flags.writeable = False
     return gain
 
@@ -82,13 +93,12 @@ def _flow_grids(height: int, width: int, cx: float, foe_row: float) -> tuple[np.
 
 
 @functools.lru_cache(maxsize=8)
-def _inv_cos_bearing(height: int, width: int, focal_px: float, cx: float) -> np.ndarray:
-    """1 / cos of each column's bearing, ``hypot(f, u - cx) / f``, float32 (H, W), read-only."""
+def inv_cos_bearing(width: int, focal_px: float, cx: float) -> np.ndarray:
+    """1 / cos of each column's bearing, ``hypot(f, u - cx) / f``, float32 (W,), read-only, cached."""
     du = np.arange(width, dtype=np.float64) - cx
     row = (np.hypot(focal_px, du) / focal_px).astype(np.float32)
-    out = np.ascontiguousarray(np.broadcast_to(row, (height, width)))
-    out.flags.writeable = False
-    return out
+    row.flags.writeable = False
+    return row
 
 
 def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m: float) -> np.ndarray:
@@ -119,11 +129,11 @@ def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m
         pixels is ``s * |p - e|``.
     """
     h, w = depth.shape
-    inv_cos = _inv_cos_bearing(h, w, float(focal_px), float(cx))
     if travel_m <= 0.0:
         return np.zeros((h, w), np.float32)
+    inv_cos = np.broadcast_to(inv_cos_bearing(w, float(focal_px), float(cx)), (h, w))
     # s = travel / (X - travel), X = depth * cos(bearing); inf depth -> 0.
-    x = cv2.divide(np.asarray(depth, np.float32), inv_cos)
+    x = np.divide(np.asarray(depth, np.float32), inv_cos)
     np.subtract(x, np.float32(travel_m), out=x)
     np.maximum(x, np.float32(travel_m), out=x)  # a point closer than one travel: s capped at 1
     return np.divide(np.float32(travel_m), x, out=x)
@@ -208,15 +218,19 @@ class NoiseTile:
         self.field = rng.standard_normal(shape, dtype=np.float32)
         self._last: tuple[int, int] | None = None
 
-    def window(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-        """The next frame's noise: an (H, W, 3) float32 view and its sign (+1 or -1)."""
+    def offsets(self, rng: np.random.Generator) -> tuple[int, int, float]:
+        """The next frame's window: row and column offset into ``field`` and its sign (+1 or -1)."""
         while True:
             oy, ox, flip = (int(k) for k in rng.integers(0, (self.pad[0] + 1, self.pad[1] + 1, 2)))
             if (oy, ox) != self._last:
                 break
         self._last = (oy, ox)
-        view = self.field[oy : oy + self.height, ox : ox + self.width]
-        return view, (-1.0 if flip else 1.0)
+        return oy, ox, (-1.0 if flip else 1.0)
+
+    def window(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """The next frame's noise: an (H, W, 3) float32 view and its sign (+1 or -1)."""
+        oy, ox, sign = self.offsets(rng)
+        return self.field[oy : oy + self.height, ox : ox + self.width], sign
 
 
 def add_noise_dn(

@@ -29,6 +29,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
+from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
     adc_response_lut,
@@ -255,49 +256,62 @@ def apply_sensor(
     """
     if params.is_identity:
         return rgb.copy(), float(cv2.mean(srgb_to_linear(rgb))[0])
-    lin = srgb_to_linear(rgb)  # a fresh float32 buffer: every step below may work in place
-    h, w = lin.shape[:2]
+    h, w = rgb.shape[:2]
     fx, cx, cy = float(camera.K[0, 0]), float(camera.K[0, 2]), float(camera.K[1, 2])
     gain = 2.0**ev
+    frame = np.ascontiguousarray(rgb)
     if params.motion_blur:
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
             d = camera.depth if depth is None else depth
             scale = motion_blur_scale(d, focal_px=fx, cx=cx, travel_m=travel)
-            lin = radial_motion_blur(lin, scale, cx=cx, foe_row=float(camera.horizon_row))
+            frame = radial_motion_blur(srgb_to_linear(rgb), scale, cx=cx, foe_row=float(camera.horizon_row))
     full = float(2**params.adc_bits - 1)
-    # Per-pixel arithmetic on (H, W*3) single-channel views: OpenCV applies a scalar
-    # operand to the first channel only of a multi-channel array.
-    flat = lin.reshape(h, w * 3)
-    if params.vignetting:
-        vig = vignetting_gain(h, w, fx, cx, cy, params.vignetting_exponent).reshape(h, w * 3)
-        signal = cv2.multiply(flat, vig, dst=flat, scale=gain * full)
-    else:
-        signal = np.multiply(flat, np.float32(gain * full), out=flat)
-    if white_balance is not None:
-        np.multiply(signal, np.tile(np.asarray(white_balance, np.float32), w)[None, :], out=signal)
-    np.minimum(signal, np.float32(full), out=signal)  # the full well
-    measured = cv2.mean(signal[int(params.ae_roi_top * h) :])[0] / full  # the metering window
-    normal: np.ndarray | None = None
-    sign = 1.0
+    vig = (
+        vignetting_gain(h, w, fx, cx, cy, params.vignetting_exponent).reshape(h, 3 * w)
+        if params.vignetting
+        else _ones(h, 3 * w)
+    )
+    if white_balance is not None:  # the episode's white-balance gains, per channel value
+        vig = vig * np.tile(np.asarray(white_balance, np.float32), w)[None, :]
+    k = full / params.full_well_e
+    field, oy, ox, sign = _NO_NOISE, 0, 0, 1.0
     if params.shot_noise or params.read_noise_e > 0.0:
         if noise is not None:
-            window, sign = noise.window(rng)
-            normal = window.reshape(h, w * 3)
+            field = noise.field
+            oy, ox, sign = noise.offsets(rng)
         else:
-            normal = np.asarray(rng.standard_normal((h, w * 3), dtype=np.float32))
-    dn = add_noise_dn(
-        signal,
-        normal,
-        sign=sign,
-        gain_dn_per_e=full / params.full_well_e,
-        shot=params.shot_noise,
-        read_noise_e=params.read_noise_e,
-    ).reshape(h, w, 3)
-    out = np.take(adc_response_lut(params.adc_bits, params.tone_shoulder, params.gamma), dn)
+            field = np.asarray(rng.standard_normal((h, w, 3), dtype=np.float32))
+    else:
+        k = 0.0
+    out = np.empty((h, w, 3), np.uint8)
+    top = min(int(params.ae_roi_top * h), h - 1)  # the metering window: rows top .. h-1
+    total = expose_frame(
+        frame,
+        _DECODE_LUT,
+        vig,
+        (gain * full, full),
+        field,
+        (oy, ox, sign, k if params.shot_noise else 0.0, (k * params.read_noise_e) ** 2),
+        adc_response_lut(params.adc_bits, params.tone_shoulder, params.gamma),
+        out,
+        top,
+    )
+    measured = total / ((h - top) * w * 3 * full)  # the mean over the metering window
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
+
+
+_NO_NOISE = np.zeros((1, 1, 3), np.float32)
+_DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
+
+
+@functools.lru_cache(maxsize=4)
+def _ones(height: int, width: int) -> np.ndarray:
+    ones = np.ones((height, width), np.float32)
+    ones.flags.writeable = False
+    return ones
 
 
 class Sensor:
