@@ -9,6 +9,7 @@ from gymnasium.utils.env_checker import check_env
 
 import simroad
 from simroad import SimroadError
+from simroad.camera import SKY
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
 from simroad.experiments.rollout import autopilot_env_action
 
@@ -45,7 +46,9 @@ def test_observation_and_info_contents():
     assert obs.shape == (100, 200, 3) and obs.dtype == np.uint8
     assert env.observation_space.contains(obs)
     assert info["road_mask"].dtype == bool and info["road_mask"].shape == (100, 200)
-    assert info["depth"].dtype == np.float32 and np.isinf(info["depth"][0]).all()
+    sky = info["material"] == SKY  # the sky is infinitely far; scenery may stand in the top row
+    assert info["depth"].dtype == np.float32 and np.isinf(info["depth"][sky]).all() and sky[0].any()
+    assert np.isfinite(info["depth"][~sky]).all()
     assert 0.2 < info["road_mask"].mean() < 0.8
     assert info["pose"].shape == (3,)
     assert abs(info["lateral_offset_m"]) < info["lane_width_m"] / 2
