@@ -209,7 +209,11 @@ def test_changed_arrays_that_zip_cannot_see_fail_the_checksum(model_arrays, tmp_
     """The archive is rebuilt around one flipped bit, so its CRC-32 and zlib stream are valid."""
     arrays = dict(model_arrays)
     raw = bytearray(np.ascontiguousarray(arrays[member]).tobytes())
-    raw[len(raw) // 2] ^= 0x01 if member != "meta" else 0x02  # meta: '2' -> '0' keeps it valid JSON text
+    if member == "meta":  # change one digit of the JSON text: still valid JSON, another number
+        at = next(i for i in range(len(raw) // 2, len(raw)) if chr(raw[i]).isdigit())
+        raw[at] = ord("7") if raw[at] != ord("7") else ord("3")
+    else:
+        raw[len(raw) // 2] ^= 0x01
     arrays[member] = np.frombuffer(bytes(raw), dtype=arrays[member].dtype).reshape(arrays[member].shape)
     load_fails(write_arrays(tmp_path / "f.npz", arrays, reseal=False), "checksum mismatch")
 
