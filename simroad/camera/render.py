@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from simroad.camera import _raster
 from simroad.camera._painter import MeshPainter, clip_near
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
@@ -161,9 +162,9 @@ class CameraRenderer:
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
         self._footprint = np.vstack([hull, [[c.forward_offset_m, 0.0]]]).astype(float)
         self._painter = MeshPainter(camera, haze=self._haze)
-        self._ground_flat = camera.ground_valid.ravel()
+        self._ground = np.ascontiguousarray(camera.ground_valid)
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
-        self._gx, self._gy = eg[..., 0].ravel(), eg[..., 1].ravel()
+        self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -265,44 +266,34 @@ class CameraRenderer:
 
         The occlusion is a smooth function of the signed ground distance ``sd`` (m) to
         the vehicle's footprint: ``AO_STRENGTH`` from 0.25 m under the car, 0.7 of it at
-        the footprint's edge, none 0.45 m outside. Material and road mask are
-        untouched (the road is still road in a shadow).
+        the footprint's edge, none 0.45 m outside (where footprints meet, the
+        strongest). Material and road mask are untouched (the road is still road in a
+        shadow). Only the pixels in the screen box of each grown footprint are visited
+        (:func:`simroad.camera._raster.contact_shadows`).
         """
         cam = self.camera
         c = cam.config
-        label = np.full((c.height, c.width), -1, dtype=np.int32)
-        cpos = cam.position_world
-        order = sorted(
-            range(len(vehicles)), key=lambda i: -math.hypot(vehicles[i].x - cpos[0], vehicles[i].y - cpos[1])
-        )
-        for i in order:
-            v = vehicles[i]
+        x, y, h = cam.pose
+        ch, sh = math.cos(h), math.sin(h)
+        boxes, rects = [], []
+        for v in vehicles:
             grown = VehicleBox(v.x, v.y, v.heading, v.length + 2 * _AO_REACH_M, v.width + 2 * _AO_REACH_M, v.rgb)
             pc = clip_near(cam.world_to_camera(np.column_stack([grown.corners(), np.zeros(4)])))
             if len(pc) < 3:
                 continue
-            pts = np.round(cam.camera_to_image(pc) * 16).astype(np.int32)
-            cv2.fillConvexPoly(label, pts, i, lineType=cv2.LINE_8, shift=4)
-        flat = label.ravel()
-        idx = np.flatnonzero((flat >= 0) & self._ground_flat)
-        if not len(idx):
-            return
-        k = flat[idx]
-        x, y, h = cam.pose
-        ch, sh = math.cos(h), math.sin(h)
-        vp = np.array([[v.x - x, v.y - y, v.heading - h, v.length / 2, v.width / 2] for v in vehicles])
-        ex = ch * vp[:, 0] + sh * vp[:, 1]  # vehicle centres in the ego frame
-        ey = -sh * vp[:, 0] + ch * vp[:, 1]
-        dx, dy = self._gx[idx] - ex[k], self._gy[idx] - ey[k]
-        cr, sr = np.cos(vp[k, 2]), np.sin(vp[k, 2])
-        qx = np.abs(cr * dx + sr * dy) - vp[k, 3]
-        qy = np.abs(-sr * dx + cr * dy) - vp[k, 4]
-        sd = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
-        a = np.clip((_AO_REACH_M - sd) / (_AO_REACH_M + _AO_INNER_M), 0.0, 1.0)
-        occ = AO_STRENGTH * a * a * (3 - 2 * a)
-        gain = ((1.0 - occ) ** (1 / 2.2)).astype(np.float32)  # in the sRGB-encoded frame
-        px = rgb.reshape(-1, 3)
-        px[idx] = (px[idx] * gain[:, None]).astype(np.uint8)
+            uv = cam.camera_to_image(pc)
+            lo, hi = np.floor(uv.min(axis=0)), np.ceil(uv.max(axis=0))
+            if hi[0] < 0 or hi[1] < 0 or lo[0] >= c.width or lo[1] >= c.height:
+                continue
+            lo, hi = np.maximum(lo, -1), np.minimum(hi, [c.width, c.height])
+            rects.append([int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])])
+            dx, dy = v.x - x, v.y - y
+            boxes.append([ch * dx + sh * dy, -sh * dx + ch * dy, v.heading - h, v.length / 2, v.width / 2])
+        if boxes:
+            _raster.contact_shadows(
+                rgb, self._ground, self._gx, self._gy, np.array(boxes), np.array(rects, dtype=np.int64),
+                AO_STRENGTH, _AO_INNER_M, _AO_REACH_M,
+            )  # fmt: skip
 
 
 def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera
-from simroad.camera._occlusion import prepare
+from simroad.camera._raster import mesh_data
 from simroad.camera._painter import MeshPainter
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
@@ -152,13 +152,15 @@ def _with_decal(box: Mesh, face: int, shrink: float = 0.25, albedo=(0.05, 0.05, 
     )
 
 
-def test_decals_are_found_and_add_no_plane_or_corner():
+def test_decals_are_found_and_add_nothing_to_the_bounding_sphere():
     box = _box(30, 0, 4, 6, 0, 5)
     rear = int(np.argmin(box.normal[:, 0]))  # faces the camera (normal -x)
-    prep = prepare(_with_decal(box, rear))
-    assert prep.decal.sum() == 1 and prep.decal[prep.face == 6].all()
-    assert prep.planes.shape[1] == 6  # the box's six planes
-    assert prep.corners.shape[1] == 8  # the box's corners, the window adds none
+    m = _with_decal(box, rear)
+    args = (m.vertices, m.counts.astype(np.int64), m.normal, m.solid.astype(np.int64))
+    offset, centroid, decal, sphere = mesh_data(*args)
+    assert decal.sum() == 1 and decal[6]  # the window, not its facade
+    np.testing.assert_allclose(sphere[0], [30, 0, 2.5, math.sqrt(2**2 + 3**2 + 2.5**2)])
+    np.testing.assert_allclose(offset, np.einsum("fc,fc->f", m.normal, m.vertices[:, 0]))
 
 
 def test_a_window_is_drawn_on_its_facade_and_hides_nothing_else():
@@ -177,7 +179,9 @@ def test_a_window_is_drawn_on_its_facade_and_hides_nothing_else():
 
 def test_a_tree_in_front_of_a_facade_and_a_pole_beside_it():
     cam = _camera()
-    facade = _box(40, 8, 30, 10, 0, 12, material=BUILDING)  # along the road, on the right
+    # Along the road, on the right, clear of the tree (y in 4.6..14.6 vs 2.5..4.5: were
+    # they to intersect, the part of the tree inside the building would be hidden).
+    facade = _box(40, 9.6, 30, 10, 0, 12, material=BUILDING)
     tree = _box(33, 3.5, 2, 2, 0, 5, material=VEGETATION)
     pole = _box(50, 2.5, 0.3, 0.3, 0, 6, material=POLE)
     for parts in ([facade, tree, pole], [pole, tree, facade], [tree, facade, pole]):

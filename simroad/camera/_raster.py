@@ -1,0 +1,258 @@
+"""Compiled kernels of the mesh painter: a z-buffer rasteriser of planar convex faces.
+
+Compiled with numba (``cache=True``: the machine code is stored next to this module
+and re-used by later processes and workers). Three kernels:
+
+* :func:`mesh_data` (once per mesh): each face's plane offset, centroid and decal
+  flag (coplanar with an earlier face of its solid) and each solid's bounding sphere;
+* :func:`rasterise` (per frame and mesh): culls solids by bounding sphere against the
+  view frustum and the range, culls back faces, faces beyond the range and faces
+  below the level of detail, clips faces to the near plane, projects them and fills
+  them scanline by scanline with a per-pixel depth test;
+* :func:`shade` (per frame): colour, material and depth through the face buffer.
+
+Depth is exact per pixel: the horizontal distance from the camera to where the
+pixel's ray meets the face's plane ``n . X = k`` (camera frame), ``hd / (n / k . ray)``
+with ``hd`` the horizontal distance per unit of camera depth of the pixel's ray.
+A face wins a pixel when it is nearer than what the pixel sees (the flat ground's
+depth, ``inf`` for the sky, or an earlier face); a later face of the same solid also
+wins a tie (0.1 %): the faces of a convex solid that face the camera never overlap,
+so an overlap within one solid is a decal (window, light, plate) over its base face.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["contact_shadows", "mesh_data", "rasterise", "shade"]
+
+_TIE = 1e-3  # relative depth tolerance of a decal over its base face
+_MAXV = 40  # vertices of a near-clipped face (16 + one per clipped edge, with room)
+
+
+@njit(cache=True)
+def mesh_data(verts, counts, normal, solid):  # pragma: no cover - compiled
+    """Per-face ``offset (F,)``, ``centroid (F, 3)``, ``decal (F,)`` and per-solid
+    ``sphere (S, 4)`` (centre, radius; S = max solid id + 1)."""
+    F = verts.shape[0]
+    S = 0
+    for f in range(F):
+        S = max(S, solid[f] + 1)
+    offset = np.empty(F)
+    centroid = np.zeros((F, 3))
+    decal = np.zeros(F, dtype=np.bool_)
+    lo = np.full((S, 3), np.inf)
+    hi = np.full((S, 3), -np.inf)
+    for f in range(F):
+        n = counts[f]
+        offset[f] = normal[f, 0] * verts[f, 0, 0] + normal[f, 1] * verts[f, 0, 1] + normal[f, 2] * verts[f, 0, 2]
+        s = solid[f]
+        for i in range(n):
+            for a in range(3):
+                v = verts[f, i, a]
+                centroid[f, a] += v / n
+                lo[s, a] = min(lo[s, a], v)
+                hi[s, a] = max(hi[s, a], v)
+        # Decal: coplanar with an earlier face of its solid (solids are contiguous runs).
+        j = f - 1
+        while j >= 0 and solid[j] == s and f - j <= 512:
+            dot = normal[f, 0] * normal[j, 0] + normal[f, 1] * normal[j, 1] + normal[f, 2] * normal[j, 2]
+            if dot > 1.0 - 1e-6 and abs(offset[f] - offset[j]) < 1e-3:
+                decal[f] = True
+                break
+            j -= 1
+    sphere = np.zeros((S, 4))
+    sphere[:, 3] = -1.0  # no face: never visible
+    for s in range(S):
+        if lo[s, 0] <= hi[s, 0]:
+            for a in range(3):
+                sphere[s, a] = 0.5 * (lo[s, a] + hi[s, a])
+    for f in range(F):
+        s = solid[f]
+        for i in range(counts[f]):
+            d = 0.0
+            for a in range(3):
+                d += (verts[f, i, a] - sphere[s, a]) ** 2
+            sphere[s, 3] = max(sphere[s, 3], np.sqrt(d))
+    return offset, centroid, decal, sphere
+
+
+@njit(cache=True)
+def rasterise(
+    verts, counts, normal, offset, solid, decal, sphere, M, o, cam, sides, xn, yn, hd,
+    zbuf, fbuf, sbuf, face_base, solid_base, lod, decal_lod,
+):  # pragma: no cover - compiled  # fmt: skip
+    """Draw the faces of one mesh into the depth, face and solid buffers (in place).
+
+    ``M, o``: camera = world @ M + o; ``cam``: ``(fx, fy, px, py, near, range, cx, cy,
+    cz)`` with ``(cx, cy, cz)`` the camera's world position; ``sides``: the inward
+    normals (4, 3) of the frustum's side planes. ``fbuf`` gets ``face_base + f``,
+    ``sbuf`` ``solid_base + solid[f]``. Returns the flags (F,) of the faces drawn
+    (that passed culling and the level of detail) and the rows ``(r0, r1)`` touched.
+    """
+    fx, fy, px, py, near, R, cx, cy, cz = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5], cam[6], cam[7], cam[8]
+    H, W = zbuf.shape
+    F = verts.shape[0]
+    S = sphere.shape[0]
+    used = np.zeros(F, dtype=np.bool_)
+    vis = np.zeros(S, dtype=np.bool_)
+    for s in range(S):
+        r = sphere[s, 3]
+        if r < 0 or np.hypot(sphere[s, 0] - cx, sphere[s, 1] - cy) - r > R:
+            continue
+        c = np.empty(3)
+        for a in range(3):
+            c[a] = sphere[s, 0] * M[0, a] + sphere[s, 1] * M[1, a] + sphere[s, 2] * M[2, a] + o[a]
+        if c[2] + r < near:
+            continue
+        ok = True
+        for k in range(4):
+            if c[0] * sides[k, 0] + c[1] * sides[k, 1] + c[2] * sides[k, 2] < -r:
+                ok = False
+        vis[s] = ok
+    P = np.empty((16, 3))
+    Q = np.empty((_MAXV, 3))
+    uv = np.empty((_MAXV, 2))
+    r_lo, r_hi = H, 0
+    for f in range(F):
+        if not vis[solid[f]]:
+            continue
+        if normal[f, 0] * cx + normal[f, 1] * cy + normal[f, 2] * cz - offset[f] <= 1e-6:
+            continue  # turned away (or edge-on)
+        n = counts[f]
+        zmin, zmax, hmin, hmax = np.inf, -np.inf, np.inf, 0.0
+        for i in range(n):
+            for a in range(3):
+                P[i, a] = verts[f, i, 0] * M[0, a] + verts[f, i, 1] * M[1, a] + verts[f, i, 2] * M[2, a] + o[a]
+            zmin = min(zmin, P[i, 2])
+            zmax = max(zmax, P[i, 2])
+            h = np.hypot(verts[f, i, 0] - cx, verts[f, i, 1] - cy)
+            hmin = min(hmin, h)
+            hmax = max(hmax, h)
+        if zmax < near or hmin > R:
+            continue
+        # Near-plane clip (Sutherland-Hodgman), then project.
+        m = 0
+        if zmin >= near:
+            for i in range(n):
+                Q[i, :] = P[i, :]
+            m = n
+        else:
+            for i in range(n):
+                j = (i + 1) % n
+                pin, qin = P[i, 2] >= near, P[j, 2] >= near
+                if pin:
+                    Q[m, :] = P[i, :]
+                    m += 1
+                if pin != qin:
+                    t = (near - P[i, 2]) / (P[j, 2] - P[i, 2])
+                    for a in range(3):
+                        Q[m, a] = P[i, a] + t * (P[j, a] - P[i, a])
+                    m += 1
+            if m < 3:
+                continue
+        ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
+        for i in range(m):
+            u = fx * Q[i, 0] / Q[i, 2] + px
+            v = fy * Q[i, 1] / Q[i, 2] + py
+            uv[i, 0], uv[i, 1] = u, v
+            ulo, uhi, vlo, vhi = min(ulo, u), max(uhi, u), min(vlo, v), max(vhi, v)
+        if uhi < -0.5 or ulo > W - 0.5 or vhi < -0.5 or vlo > H - 0.5:
+            continue
+        if max(uhi - ulo, vhi - vlo) < (decal_lod if decal[f] else lod):
+            continue
+        used[f] = True
+        # Plane n . X = k in the camera frame, as n / k.
+        nc0 = normal[f, 0] * M[0, 0] + normal[f, 1] * M[1, 0] + normal[f, 2] * M[2, 0]
+        nc1 = normal[f, 0] * M[0, 1] + normal[f, 1] * M[1, 1] + normal[f, 2] * M[2, 1]
+        nc2 = normal[f, 0] * M[0, 2] + normal[f, 1] * M[1, 2] + normal[f, 2] * M[2, 2]
+        k = nc0 * P[0, 0] + nc1 * P[0, 1] + nc2 * P[0, 2]
+        a0, a1, a2 = nc0 / k, nc1 / k, nc2 / k
+        gid = face_base + f
+        sid = solid_base + solid[f]
+        y0 = max(0, int(np.floor(vlo + 0.5)))
+        y1 = min(H - 1, int(np.floor(vhi + 0.5)))
+        r_lo, r_hi = min(r_lo, y0), max(r_hi, y1 + 1)
+        for y in range(y0, y1 + 1):
+            yy = min(max(float(y), vlo), vhi)  # rows a thin face only grazes: its extreme
+            xl, xr = np.inf, -np.inf
+            for i in range(m):
+                j = (i + 1) % m
+                va, vb = uv[i, 1], uv[j, 1]
+                if va == vb:
+                    if va == yy:
+                        xl = min(xl, uv[i, 0], uv[j, 0])
+                        xr = max(xr, uv[i, 0], uv[j, 0])
+                elif min(va, vb) <= yy <= max(va, vb):
+                    x = uv[i, 0] + (yy - va) * (uv[j, 0] - uv[i, 0]) / (vb - va)
+                    xl = min(xl, x)
+                    xr = max(xr, x)
+            if xl > xr:
+                continue
+            x0 = max(0, int(np.floor(xl + 0.5)))
+            x1 = min(W - 1, int(np.floor(xr + 0.5)))
+            b = a1 * yn[y] + a2
+            for x in range(x0, x1 + 1):
+                den = max(a0 * xn[x] + b, 1e-9)
+                d = min(hd[y, x] / den, hmax)
+                cur = zbuf[y, x]
+                if d < cur or (sbuf[y, x] == sid and d <= cur * (1.0 + _TIE)):
+                    zbuf[y, x] = d
+                    fbuf[y, x] = gid
+                    sbuf[y, x] = sid
+    return used, r_lo, r_hi
+
+
+@njit(cache=True)
+def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, fid_out):  # pragma: no cover - compiled
+    """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
+    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and ``remap[fbuf]`` to
+    ``fid_out``."""
+    W = fbuf.shape[1]
+    for y in range(r0, r1):
+        for x in range(W):
+            g = fbuf[y, x]
+            if g >= 0:
+                rgb[y, x, 0] = colour[g, 0]
+                rgb[y, x, 1] = colour[g, 1]
+                rgb[y, x, 2] = colour[g, 2]
+                material[y, x] = material_of[g]
+                fid_out[y, x] = remap[g]
+
+
+@njit(cache=True)
+def contact_shadows(rgb, ground, gx, gy, boxes, rects, strength, inner, reach):  # pragma: no cover - compiled
+    """Darken ground pixels around vehicle footprints (ambient occlusion), in place.
+
+    ``gx, gy`` (H, W): ego-frame ground point of each pixel; ``ground`` (H, W) bool:
+    the pixel sees flat ground; ``boxes`` (N, 5): ego-frame centre, heading, half
+    length and half width; ``rects`` (N, 4) int: the pixel box ``x0, y0, x1, y1``
+    (inclusive) to scan. A pixel near several vehicles takes the strongest occlusion.
+    """
+    H, W = ground.shape
+    gain = np.ones((H, W), dtype=np.float32)
+    for i in range(boxes.shape[0]):
+        ex, ey, hh, hl, hw = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4]
+        cr, sr = np.cos(hh), np.sin(hh)
+        for y in range(max(0, rects[i, 1]), min(H - 1, rects[i, 3]) + 1):
+            for x in range(max(0, rects[i, 0]), min(W - 1, rects[i, 2]) + 1):
+                if not ground[y, x]:
+                    continue
+                dx, dy = gx[y, x] - ex, gy[y, x] - ey
+                qx = abs(cr * dx + sr * dy) - hl
+                qy = abs(-sr * dx + cr * dy) - hw
+                sd = np.hypot(max(qx, 0.0), max(qy, 0.0)) + min(max(qx, qy), 0.0)
+                a = min(max((reach - sd) / (reach + inner), 0.0), 1.0)
+                if a <= 0.0:
+                    continue
+                occ = strength * a * a * (3 - 2 * a)
+                g = (1.0 - occ) ** (1 / 2.2)
+                if g < gain[y, x]:
+                    gain[y, x] = g
+    for y in range(H):
+        for x in range(W):
+            g = gain[y, x]
+            if g < 1.0:
+                for c in range(3):
+                    rgb[y, x, c] = np.uint8(rgb[y, x, c] * g)
