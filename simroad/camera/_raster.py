@@ -101,14 +101,14 @@ def rasterise(
         r = sphere[s, 3]
         if r < 0 or np.hypot(sphere[s, 0] - cx, sphere[s, 1] - cy) - r > R:
             continue
-        c = np.empty(3)
-        for a in range(3):
-            c[a] = sphere[s, 0] * M[0, a] + sphere[s, 1] * M[1, a] + sphere[s, 2] * M[2, a] + o[a]
-        if c[2] + r < near:
+        c0 = sphere[s, 0] * M[0, 0] + sphere[s, 1] * M[1, 0] + sphere[s, 2] * M[2, 0] + o[0]
+        c1 = sphere[s, 0] * M[0, 1] + sphere[s, 1] * M[1, 1] + sphere[s, 2] * M[2, 1] + o[1]
+        c2 = sphere[s, 0] * M[0, 2] + sphere[s, 1] * M[1, 2] + sphere[s, 2] * M[2, 2] + o[2]
+        if c2 + r < near:
             continue
         ok = True
         for k in range(4):
-            if c[0] * sides[k, 0] + c[1] * sides[k, 1] + c[2] * sides[k, 2] < -r:
+            if c0 * sides[k, 0] + c1 * sides[k, 1] + c2 * sides[k, 2] < -r:
                 ok = False
         vis[s] = ok
     P = np.empty((16, 3))
@@ -222,21 +222,43 @@ def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, fid_out):  # 
 
 
 @njit(cache=True)
-def contact_shadows(rgb, ground, gx, gy, boxes, rects, strength, inner, reach):  # pragma: no cover - compiled
+def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled
     """Darken ground pixels around vehicle footprints (ambient occlusion), in place.
 
     ``gx, gy`` (H, W): ego-frame ground point of each pixel; ``ground`` (H, W) bool:
     the pixel sees flat ground; ``boxes`` (N, 5): ego-frame centre, heading, half
-    length and half width; ``rects`` (N, 4) int: the pixel box ``x0, y0, x1, y1``
-    (inclusive) to scan. A pixel near several vehicles takes the strongest occlusion.
+    length and half width of each footprint; ``corners`` (N, 4, 3): camera-frame
+    corners of each footprint grown by ``reach`` (only pixels in their screen box are
+    visited); ``cam``: ``(fx, fy, px, py, near)``. A pixel near several vehicles takes
+    the strongest occlusion.
     """
     H, W = ground.shape
+    fx, fy, px, py, near = cam[0], cam[1], cam[2], cam[3], cam[4]
     gain = np.ones((H, W), dtype=np.float32)
+    y_lo, y_hi = H, -1
     for i in range(boxes.shape[0]):
+        ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
+        for k in range(4):  # screen box of the footprint clipped to the near plane
+            for e in range(2):
+                p, q = corners[i, k], corners[i, (k + 1) % 4]
+                if e == 0 and p[2] >= near:
+                    u, v = fx * p[0] / p[2] + px, fy * p[1] / p[2] + py
+                elif e == 1 and (p[2] >= near) != (q[2] >= near):
+                    t = (near - p[2]) / (q[2] - p[2])
+                    u = fx * (p[0] + t * (q[0] - p[0])) / near + px
+                    v = fy * (p[1] + t * (q[1] - p[1])) / near + py
+                else:
+                    continue
+                ulo, uhi, vlo, vhi = min(ulo, u), max(uhi, u), min(vlo, v), max(vhi, v)
+        if not (ulo <= uhi) or uhi < 0 or vhi < 0 or ulo > W - 1 or vlo > H - 1:
+            continue
+        x0, x1 = max(0, int(np.floor(ulo))), min(W - 1, int(np.ceil(uhi)))
+        y0, y1 = max(0, int(np.floor(vlo))), min(H - 1, int(np.ceil(vhi)))
+        y_lo, y_hi = min(y_lo, y0), max(y_hi, y1)
         ex, ey, hh, hl, hw = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4]
         cr, sr = np.cos(hh), np.sin(hh)
-        for y in range(max(0, rects[i, 1]), min(H - 1, rects[i, 3]) + 1):
-            for x in range(max(0, rects[i, 0]), min(W - 1, rects[i, 2]) + 1):
+        for y in range(y0, y1 + 1):
+            for x in range(x0, x1 + 1):
                 if not ground[y, x]:
                     continue
                 dx, dy = gx[y, x] - ex, gy[y, x] - ey
@@ -246,11 +268,10 @@ def contact_shadows(rgb, ground, gx, gy, boxes, rects, strength, inner, reach): 
                 a = min(max((reach - sd) / (reach + inner), 0.0), 1.0)
                 if a <= 0.0:
                     continue
-                occ = strength * a * a * (3 - 2 * a)
-                g = (1.0 - occ) ** (1 / 2.2)
+                g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / 2.2)
                 if g < gain[y, x]:
                     gain[y, x] = g
-    for y in range(H):
+    for y in range(max(y_lo, 0), y_hi + 1):
         for x in range(W):
             g = gain[y, x]
             if g < 1.0:

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from simroad.camera import _raster
-from simroad.camera._painter import MeshPainter, clip_near
+from simroad.camera._painter import NEAR_M, MeshPainter
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
@@ -272,28 +272,23 @@ class CameraRenderer:
         (:func:`simroad.camera._raster.contact_shadows`).
         """
         cam = self.camera
-        c = cam.config
+        k = cam.K
         x, y, h = cam.pose
+        v = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in vehicles])
+        c, s = np.cos(v[:, 2]), np.sin(v[:, 2])
+        hl, hw = v[:, 3] + _AO_REACH_M, v[:, 4] + _AO_REACH_M
+        corners = np.zeros((len(v), 4, 3))
+        for j, (a, b) in enumerate(((1, -1), (1, 1), (-1, 1), (-1, -1))):
+            corners[:, j, 0] = v[:, 0] + a * hl * c + b * hw * s
+            corners[:, j, 1] = v[:, 1] + a * hl * s - b * hw * c
+        M, o = self._painter._affine()
         ch, sh = math.cos(h), math.sin(h)
-        boxes, rects = [], []
-        for v in vehicles:
-            grown = VehicleBox(v.x, v.y, v.heading, v.length + 2 * _AO_REACH_M, v.width + 2 * _AO_REACH_M, v.rgb)
-            pc = clip_near(cam.world_to_camera(np.column_stack([grown.corners(), np.zeros(4)])))
-            if len(pc) < 3:
-                continue
-            uv = cam.camera_to_image(pc)
-            lo, hi = np.floor(uv.min(axis=0)), np.ceil(uv.max(axis=0))
-            if hi[0] < 0 or hi[1] < 0 or lo[0] >= c.width or lo[1] >= c.height:
-                continue
-            lo, hi = np.maximum(lo, -1), np.minimum(hi, [c.width, c.height])
-            rects.append([int(lo[0]), int(lo[1]), int(hi[0]), int(hi[1])])
-            dx, dy = v.x - x, v.y - y
-            boxes.append([ch * dx + sh * dy, -sh * dx + ch * dy, v.heading - h, v.length / 2, v.width / 2])
-        if boxes:
-            _raster.contact_shadows(
-                rgb, self._ground, self._gx, self._gy, np.array(boxes), np.array(rects, dtype=np.int64),
-                AO_STRENGTH, _AO_INNER_M, _AO_REACH_M,
-            )  # fmt: skip
+        dx, dy = v[:, 0] - x, v[:, 1] - y
+        boxes = np.column_stack([ch * dx + sh * dy, -sh * dx + ch * dy, v[:, 2] - h, v[:, 3], v[:, 4]])
+        cam_v = np.array([k[0, 0], k[1, 1], k[0, 2], k[1, 2], NEAR_M])
+        _raster.contact_shadows(
+            rgb, self._ground, self._gx, self._gy, boxes, corners @ M + o, cam_v, AO_STRENGTH, _AO_INNER_M, _AO_REACH_M
+        )
 
 
 def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:
