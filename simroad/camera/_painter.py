@@ -100,11 +100,8 @@ class MeshPainter:
         K = camera.K
         u = (np.arange(c.width, dtype=np.float64) - K[0, 2]) / K[0, 0]
         v = (np.arange(c.height, dtype=np.float64) - K[1, 2]) / K[1, 1]
-        xn, yn = np.meshgrid(u, v)
-        rays = np.stack([xn, yn, np.ones_like(xn)], axis=-1) @ camera._R_ego  # ego frame, per pixel
-        self._xn, self._yn = u, v
-        #: horizontal ground distance travelled per unit of camera depth z, per pixel
-        self._hd = np.ascontiguousarray(np.hypot(rays[..., 0], rays[..., 1]))
+        self._xn, self._yn = u.astype(np.float32), v
+        self._ray = np.ascontiguousarray(camera._R_ego, dtype=np.float64)  # (xn, yn, 1) @ ray: ego frame
         # Inward normals of the frustum's side planes (camera frame, through the centre).
         xl, xr = (-0.5 - K[0, 2]) / K[0, 0], (c.width - 0.5 - K[0, 2]) / K[0, 0]
         yt, yb = (-0.5 - K[1, 2]) / K[1, 1], (c.height - 0.5 - K[1, 2]) / K[1, 1]
@@ -201,19 +198,16 @@ class MeshPainter:
         cx, cy = cam.position_world
         camv = np.array([cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2], NEAR_M, c.max_range_m, cx, cy, c.mount_height_m])
         fbuf = np.full((H, W), -1, dtype=np.int32)
-        sbuf = np.full((H, W), -1, dtype=np.int32)
         preps = [self._prepared(m) for m in parts]
-        used, r0, r1, fbase, sbase = [], H, 0, 0, 0
+        used, r0, r1, fbase = [], H, 0, 0
         for p in preps:
             u, a, b = _raster.rasterise(
                 p.verts, p.counts, p.normal, p.offset, p.solid, p.decal, p.sphere, M, o, camv,
-                self._sides, self._xn, self._yn, self._hd, depth, fbuf, sbuf, fbase, sbase,
-                LOD_PX, DECAL_LOD_PX,
+                self._sides, self._xn, self._yn, self._ray, depth, fbuf, fbase, LOD_PX, DECAL_LOD_PX,
             )  # fmt: skip
             used.append(u)
             r0, r1 = min(r0, a), max(r1, b)
             fbase += len(p.verts)
-            sbase += p.n_solids
         if r1 <= r0:
             return fid, used
         flags = np.concatenate(used)

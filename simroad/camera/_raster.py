@@ -13,7 +13,8 @@ and re-used by later processes and workers). Three kernels:
 
 Depth is exact per pixel: the horizontal distance from the camera to where the
 pixel's ray meets the face's plane ``n . X = k`` (camera frame), ``hd / (n / k . ray)``
-with ``hd`` the horizontal distance per unit of camera depth of the pixel's ray.
+with ``hd`` the horizontal distance per unit of camera depth of the pixel's ray
+(computed per pixel: no table to fetch).
 A face wins a pixel when it is nearer than what the pixel sees (the flat ground's
 depth, ``inf`` for the sky, or an earlier face); a later face of the same solid also
 wins a tie (0.1 %): the faces of a convex solid that face the camera never overlap,
@@ -31,7 +32,7 @@ _TIE = 1e-3  # relative depth tolerance of a decal over its base face
 _MAXV = 40  # vertices of a near-clipped face (16 + one per clipped edge, with room)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mesh_data(verts, counts, normal, solid):  # pragma: no cover - compiled
     """Per-face ``offset (F,)``, ``centroid (F, 3)``, ``decal (F,)`` and per-solid
     ``sphere (S, 4)`` (centre, radius; S = max solid id + 1)."""
@@ -78,17 +79,20 @@ def mesh_data(verts, counts, normal, solid):  # pragma: no cover - compiled
     return offset, centroid, decal, sphere
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", fastmath=True)
 def rasterise(
-    verts, counts, normal, offset, solid, decal, sphere, M, o, cam, sides, xn, yn, hd,
-    zbuf, fbuf, sbuf, face_base, solid_base, lod, decal_lod,
+    verts, counts, normal, offset, solid, decal, sphere, M, o, cam, sides, xn, yn, ray,
+    zbuf, fbuf, face_base, lod, decal_lod,
 ):  # pragma: no cover - compiled  # fmt: skip
     """Draw the faces of one mesh into the depth, face and solid buffers (in place).
 
     ``M, o``: camera = world @ M + o; ``cam``: ``(fx, fy, px, py, near, range, cx, cy,
     cz)`` with ``(cx, cy, cz)`` the camera's world position; ``sides``: the inward
-    normals (4, 3) of the frustum's side planes. ``fbuf`` gets ``face_base + f``,
-    ``sbuf`` ``solid_base + solid[f]``. Returns the flags (F,) of the faces drawn
+    normals (4, 3) of the frustum's side planes; ``xn (W,)``, ``yn (H,)``: normalised
+    image coordinates of the pixel columns and rows; ``ray`` (3, 3): camera to ego
+    rotation (a pixel's ray is ``(xn, yn, 1) @ ray``). ``zbuf`` (float32) holds the
+    depth, ``fbuf`` (int32) gets ``face_base + f`` (earlier parts' faces are below
+    ``face_base``). Returns the flags (F,) of the faces drawn
     (that passed culling and the level of detail) and the rows ``(r0, r1)`` touched.
     """
     fx, fy, px, py, near, R, cx, cy, cz = cam[0], cam[1], cam[2], cam[3], cam[4], cam[5], cam[6], cam[7], cam[8]
@@ -115,6 +119,9 @@ def rasterise(
     Q = np.empty((_MAXV, 3))
     uv = np.empty((_MAXV, 2))
     r_lo, r_hi = H, 0
+    r00, r01 = np.float32(ray[0, 0]), np.float32(ray[0, 1])
+    XL = np.empty(H)
+    XR = np.empty(H)
     for f in range(F):
         if not vis[solid[f]]:
             continue
@@ -169,42 +176,69 @@ def rasterise(
         nc2 = normal[f, 0] * M[0, 2] + normal[f, 1] * M[1, 2] + normal[f, 2] * M[2, 2]
         k = nc0 * P[0, 0] + nc1 * P[0, 1] + nc2 * P[0, 2]
         a0, a1, a2 = nc0 / k, nc1 / k, nc2 / k
-        gid = face_base + f
-        sid = solid_base + solid[f]
+        gid = np.int32(face_base + f)
+        sol = solid[f]
+        a0f, hf, tie = np.float32(a0), np.float32(hmax), np.float32(1.0 + _TIE)
         y0 = max(0, int(np.floor(vlo + 0.5)))
         y1 = min(H - 1, int(np.floor(vhi + 0.5)))
+        if y1 < y0:
+            continue
         r_lo, r_hi = min(r_lo, y0), max(r_hi, y1 + 1)
-        for y in range(y0, y1 + 1):
-            yy = min(max(float(y), vlo), vhi)  # rows a thin face only grazes: its extreme
-            xl, xr = np.inf, -np.inf
-            for i in range(m):
-                j = (i + 1) % m
-                va, vb = uv[i, 1], uv[j, 1]
+        # x extent per row, edge by edge: where the row's centre line meets the face
+        # (clamped into the face's rows); a face less than a pixel tall: its extent
+        # within the row's band, so that a thin sliver keeps its length.
+        thin = 0.5 if vhi - vlo < 1.0 else 0.0
+        XL[y0 : y1 + 1] = np.inf
+        XR[y0 : y1 + 1] = -np.inf
+        for i in range(m):
+            j = (i + 1) % m
+            ua, va, ub, vb = uv[i, 0], uv[i, 1], uv[j, 0], uv[j, 1]
+            emin, emax = min(va, vb), max(va, vb)
+            ya = max(y0, int(np.floor(emin + 0.5 - thin)) - 1)
+            yb = min(y1, int(np.floor(emax + 0.5 + thin)) + 1)
+            for y in range(ya, yb + 1):
+                lo = max(min(max(y - thin, vlo), vhi), emin)
+                hi = min(min(max(y + thin, vlo), vhi), emax)
+                if lo > hi:
+                    continue
                 if va == vb:
-                    if va == yy:
-                        xl = min(xl, uv[i, 0], uv[j, 0])
-                        xr = max(xr, uv[i, 0], uv[j, 0])
-                elif min(va, vb) <= yy <= max(va, vb):
-                    x = uv[i, 0] + (yy - va) * (uv[j, 0] - uv[i, 0]) / (vb - va)
-                    xl = min(xl, x)
-                    xr = max(xr, x)
-            if xl > xr:
+                    xl, xr = min(ua, ub), max(ua, ub)
+                else:
+                    s = (ub - ua) / (vb - va)
+                    x_lo, x_hi = ua + (lo - va) * s, ua + (hi - va) * s
+                    xl, xr = min(x_lo, x_hi), max(x_lo, x_hi)
+                XL[y] = min(XL[y], xl)
+                XR[y] = max(XR[y], xr)
+        for y in range(y0, y1 + 1):
+            if XL[y] > XR[y]:
                 continue
-            x0 = max(0, int(np.floor(xl + 0.5)))
-            x1 = min(W - 1, int(np.floor(xr + 0.5)))
-            b = a1 * yn[y] + a2
+            x0 = max(0, int(np.floor(XL[y] + 0.5)))
+            x1 = min(W - 1, int(np.floor(XR[y] + 0.5)))
+            b = np.float32(a1 * yn[y] + a2)
+            rx0 = np.float32(ray[1, 0] * yn[y] + ray[2, 0])
+            ry0 = np.float32(ray[1, 1] * yn[y] + ray[2, 1])
+            zrow, frow = zbuf[y], fbuf[y]
+            # d = min(hd / den, hmax) < cur (hd: horizontal distance per unit of
+            # camera depth along the pixel's ray), or a tie with an earlier face of
+            # the solid; no division unless the face wins.
             for x in range(x0, x1 + 1):
-                den = max(a0 * xn[x] + b, 1e-9)
-                d = min(hd[y, x] / den, hmax)
-                cur = zbuf[y, x]
-                if d < cur or (sbuf[y, x] == sid and d <= cur * (1.0 + _TIE)):
-                    zbuf[y, x] = d
-                    fbuf[y, x] = gid
-                    sbuf[y, x] = sid
+                den = max(a0f * xn[x] + b, np.float32(1e-9))
+                rx = rx0 + r00 * xn[x]
+                ry = ry0 + r01 * xn[x]
+                h = np.sqrt(rx * rx + ry * ry)
+                cur = zrow[x]
+                if h < cur * den or hf < cur:
+                    zrow[x] = min(h / den, hf)
+                    frow[x] = gid
+                elif h <= cur * tie * den:
+                    g = frow[x] - face_base
+                    if g >= 0 and solid[g] == sol:
+                        zrow[x] = min(h / den, hf)
+                        frow[x] = gid
     return used, r_lo, r_hi
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, fid_out):  # pragma: no cover - compiled
     """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
     ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and ``remap[fbuf]`` to
@@ -221,7 +255,7 @@ def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, fid_out):  # 
                 fid_out[y, x] = remap[g]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled
     """Darken ground pixels around vehicle footprints (ambient occlusion), in place.
 
