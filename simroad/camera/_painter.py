@@ -191,19 +191,18 @@ class MeshPainter:
         cam = self.camera
         c = cam.config
         H, W = c.height, c.width
-        fid = np.full((H, W), -1, dtype=np.int32)
+        fid = np.full((H, W), -1, dtype=np.int32)  # the face buffer, then the face map
         if not parts:
             return fid, []
         M, o = self._affine()
         cx, cy = cam.position_world
         camv = np.array([cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2], NEAR_M, c.max_range_m, cx, cy, c.mount_height_m])
-        fbuf = np.full((H, W), -1, dtype=np.int32)
         preps = [self._prepared(m) for m in parts]
         used, r0, r1, fbase = [], H, 0, 0
         for p in preps:
             u, a, b = _raster.rasterise(
                 p.verts, p.counts, p.normal, p.offset, p.solid, p.decal, p.sphere, M, o, camv,
-                self._sides, self._xn, self._yn, self._ray, depth, fbuf, fbase, LOD_PX, DECAL_LOD_PX,
+                self._sides, self._xn, self._yn, self._ray, depth, fid, fbase, LOD_PX, DECAL_LOD_PX,
             )  # fmt: skip
             used.append(u)
             r0, r1 = min(r0, a), max(r1, b)
@@ -228,7 +227,7 @@ class MeshPainter:
         mat = np.concatenate([p.mesh.material for p in preps]).astype(np.uint8)
         table = np.full(G, -1, dtype=np.int32)
         table[drawn] = np.arange(len(drawn), dtype=np.int32) if remap else drawn
-        _raster.shade(fbuf, r0, r1, colour, mat, table, rgb, material, fid)
+        _raster.shade(fid, r0, r1, colour, mat, table, rgb, material)
         return fid, used
 
 

@@ -29,7 +29,8 @@ from numba import njit
 __all__ = ["contact_shadows", "mesh_data", "rasterise", "shade"]
 
 _TIE = 1e-3  # relative depth tolerance of a decal over its base face
-_MAXV = 40  # vertices of a near-clipped face (16 + one per clipped edge, with room)
+_MAXV = 17  # vertices of a near-clipped face (16, one more where the plane cuts)
+_BAND = 32  # rows filled together
 
 
 @njit(cache=True, error_model="numpy")
@@ -117,11 +118,12 @@ def rasterise(
         vis[s] = ok
     P = np.empty((16, 3))
     Q = np.empty((_MAXV, 3))
-    uv = np.empty((_MAXV, 2))
-    r_lo, r_hi = H, 0
-    r00, r01 = np.float32(ray[0, 0]), np.float32(ray[0, 1])
-    XL = np.empty(H)
-    XR = np.empty(H)
+    # Faces to fill: screen polygon, vertex count, plane, farthest distance, face.
+    UV = np.empty((F, _MAXV, 2))
+    NV = np.empty(F, dtype=np.int64)
+    PL = np.empty((F, 4))
+    FA = np.empty(F, dtype=np.int64)
+    n_fill = 0
     for f in range(F):
         if not vis[solid[f]]:
             continue
@@ -163,7 +165,7 @@ def rasterise(
         for i in range(m):
             u = fx * Q[i, 0] / Q[i, 2] + px
             v = fy * Q[i, 1] / Q[i, 2] + py
-            uv[i, 0], uv[i, 1] = u, v
+            UV[n_fill, i, 0], UV[n_fill, i, 1] = u, v
             ulo, uhi, vlo, vhi = min(ulo, u), max(uhi, u), min(vlo, v), max(vhi, v)
         if uhi < -0.5 or ulo > W - 0.5 or vhi < -0.5 or vlo > H - 0.5:
             continue
@@ -175,84 +177,117 @@ def rasterise(
         nc1 = normal[f, 0] * M[0, 1] + normal[f, 1] * M[1, 1] + normal[f, 2] * M[2, 1]
         nc2 = normal[f, 0] * M[0, 2] + normal[f, 1] * M[1, 2] + normal[f, 2] * M[2, 2]
         k = nc0 * P[0, 0] + nc1 * P[0, 1] + nc2 * P[0, 2]
-        a0, a1, a2 = nc0 / k, nc1 / k, nc2 / k
-        gid = np.int32(face_base + f)
-        sol = solid[f]
-        a0f, hf, tie = np.float32(a0), np.float32(hmax), np.float32(1.0 + _TIE)
-        y0 = max(0, int(np.floor(vlo + 0.5)))
-        y1 = min(H - 1, int(np.floor(vhi + 0.5)))
-        if y1 < y0:
-            continue
-        r_lo, r_hi = min(r_lo, y0), max(r_hi, y1 + 1)
-        # x extent per row, edge by edge: where the row's centre line meets the face
-        # (clamped into the face's rows); a face less than a pixel tall: its extent
-        # within the row's band, so that a thin sliver keeps its length.
-        thin = 0.5 if vhi - vlo < 1.0 else 0.0
-        XL[y0 : y1 + 1] = np.inf
-        XR[y0 : y1 + 1] = -np.inf
-        for i in range(m):
-            j = (i + 1) % m
-            ua, va, ub, vb = uv[i, 0], uv[i, 1], uv[j, 0], uv[j, 1]
-            emin, emax = min(va, vb), max(va, vb)
-            ya = max(y0, int(np.floor(emin + 0.5 - thin)) - 1)
-            yb = min(y1, int(np.floor(emax + 0.5 + thin)) + 1)
-            for y in range(ya, yb + 1):
-                lo = max(min(max(y - thin, vlo), vhi), emin)
-                hi = min(min(max(y + thin, vlo), vhi), emax)
-                if lo > hi:
-                    continue
-                if va == vb:
-                    xl, xr = min(ua, ub), max(ua, ub)
-                else:
-                    s = (ub - ua) / (vb - va)
-                    x_lo, x_hi = ua + (lo - va) * s, ua + (hi - va) * s
-                    xl, xr = min(x_lo, x_hi), max(x_lo, x_hi)
-                XL[y] = min(XL[y], xl)
-                XR[y] = max(XR[y], xr)
-        for y in range(y0, y1 + 1):
-            if XL[y] > XR[y]:
+        PL[n_fill, 0], PL[n_fill, 1], PL[n_fill, 2], PL[n_fill, 3] = nc0 / k, nc1 / k, nc2 / k, hmax
+        NV[n_fill] = m
+        FA[n_fill] = f
+        n_fill += 1
+    # Fill band by band of rows (the buffers' rows a band touches stay in cache).
+    r_lo, r_hi = H, 0
+    XL = np.empty(H)
+    XR = np.empty(H)
+    Y0 = np.empty(n_fill, dtype=np.int64)
+    Y1 = np.empty(n_fill, dtype=np.int64)
+    for q in range(n_fill):
+        vlo, vhi = np.inf, -np.inf
+        for i in range(NV[q]):
+            vlo, vhi = min(vlo, UV[q, i, 1]), max(vhi, UV[q, i, 1])
+        Y0[q] = max(0, int(np.floor(vlo + 0.5)))
+        Y1[q] = min(H - 1, int(np.floor(vhi + 0.5)))
+        if Y1[q] >= Y0[q]:
+            r_lo, r_hi = min(r_lo, Y0[q]), max(r_hi, Y1[q] + 1)
+    for band in range(r_lo, r_hi, _BAND):
+        band_end = min(band + _BAND, r_hi) - 1
+        for q in range(n_fill):
+            if Y0[q] > band_end or Y1[q] < band or Y1[q] < Y0[q]:
                 continue
-            x0 = max(0, int(np.floor(XL[y] + 0.5)))
-            x1 = min(W - 1, int(np.floor(XR[y] + 0.5)))
-            b = np.float32(a1 * yn[y] + a2)
-            rx0 = np.float32(ray[1, 0] * yn[y] + ray[2, 0])
-            ry0 = np.float32(ray[1, 1] * yn[y] + ray[2, 1])
-            zrow, frow = zbuf[y], fbuf[y]
-            # d = min(hd / den, hmax) < cur (hd: horizontal distance per unit of
-            # camera depth along the pixel's ray), or a tie with an earlier face of
-            # the solid; no division unless the face wins.
-            for x in range(x0, x1 + 1):
-                den = max(a0f * xn[x] + b, np.float32(1e-9))
-                rx = rx0 + r00 * xn[x]
-                ry = ry0 + r01 * xn[x]
-                h = np.sqrt(rx * rx + ry * ry)
-                cur = zrow[x]
-                if h < cur * den or hf < cur:
-                    zrow[x] = min(h / den, hf)
-                    frow[x] = gid
-                elif h <= cur * tie * den:
-                    g = frow[x] - face_base
-                    if g >= 0 and solid[g] == sol:
-                        zrow[x] = min(h / den, hf)
-                        frow[x] = gid
+            _fill(q, UV, NV[q], PL[q], face_base + FA[q], decal[FA[q]], max(Y0[q], band),
+                  min(Y1[q], band_end), xn, yn, ray, zbuf, fbuf, XL, XR)  # fmt: skip
     return used, r_lo, r_hi
 
 
-@njit(cache=True, error_model="numpy")
-def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, fid_out):  # pragma: no cover - compiled
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _fill(q, UV, m, pl, gid, is_decal, ya, yb, xn, yn, ray, zbuf, fbuf, XL, XR):  # pragma: no cover
+    """Fill rows ``ya..yb`` of screen polygon ``UV[q, :m]`` with its depth test."""
+    W = zbuf.shape[1]
+    vlo, vhi = np.inf, -np.inf
+    for i in range(m):
+        vlo, vhi = min(vlo, UV[q, i, 1]), max(vhi, UV[q, i, 1])
+    # x extent per row, edge by edge: where the row's centre line meets the face
+    # (clamped into the face's rows); a face less than a pixel tall: its extent
+    # within the row's band, so that a thin sliver keeps its length.
+    thin = 0.5 if vhi - vlo < 1.0 else 0.0
+    XL[ya : yb + 1] = np.inf
+    XR[ya : yb + 1] = -np.inf
+    for i in range(m):
+        j = (i + 1) % m
+        ua, va, ub, vb = UV[q, i, 0], UV[q, i, 1], UV[q, j, 0], UV[q, j, 1]
+        emin, emax = min(va, vb), max(va, vb)
+        y_a = max(ya, int(np.floor(emin + 0.5 - thin)) - 1)
+        y_b = min(yb, int(np.floor(emax + 0.5 + thin)) + 1)
+        for y in range(y_a, y_b + 1):
+            lo = max(min(max(y - thin, vlo), vhi), emin)
+            hi = min(min(max(y + thin, vlo), vhi), emax)
+            if lo > hi:
+                continue
+            if va == vb:
+                xl, xr = min(ua, ub), max(ua, ub)
+            else:
+                sl = (ub - ua) / (vb - va)
+                x_lo, x_hi = ua + (lo - va) * sl, ua + (hi - va) * sl
+                xl, xr = min(x_lo, x_hi), max(x_lo, x_hi)
+            XL[y] = min(XL[y], xl)
+            XR[y] = max(XR[y], xr)
+    a0f, hf = np.float32(pl[0]), np.float32(pl[3])
+    tie = np.float32(1.0 + _TIE) if is_decal else np.float32(1.0)
+    r00, r01 = np.float32(ray[0, 0]), np.float32(ray[0, 1])
+    for y in range(ya, yb + 1):
+        if XL[y] > XR[y]:
+            continue
+        x0 = max(0, int(np.floor(XL[y] + 0.5)))
+        x1 = min(W - 1, int(np.floor(XR[y] + 0.5)))
+        b = np.float32(pl[1] * yn[y] + pl[2])
+        rx0 = np.float32(ray[1, 0] * yn[y] + ray[2, 0])
+        ry0 = np.float32(ray[1, 1] * yn[y] + ray[2, 1])
+        _span(zbuf[y], fbuf[y], xn, x0, x1, a0f, b, rx0, ry0, r00, r01, hf, tie, np.int32(gid))
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def _span(zrow, frow, xn, x0, x1, a0f, b, rx0, ry0, r00, r01, hf, tie, gid):  # pragma: no cover
+    """Depth-test pixels ``x0..x1`` of one row: the face wins where
+    ``d = min(hd / den, hmax) < cur`` (``hd``: horizontal distance per unit of camera
+    depth along the pixel's ray; ``den``: the plane's inverse camera depth), or,
+    a decal (``tie > 1``), where it is within the tie of its base face. Branch-free
+    with unsigned indices, so that the loop vectorises."""
+    for xs in range(x0, x1 + 1):
+        x = np.uint64(xs)
+        den = max(a0f * xn[x] + b, np.float32(1e-9))
+        rx = rx0 + r00 * xn[x]
+        ry = ry0 + r01 * xn[x]
+        h = np.sqrt(rx * rx + ry * ry)
+        cur = zrow[x]
+        w = (h < cur * den * tie) | (hf < cur)
+        zrow[x] = min(h / den, hf) if w else cur
+        frow[x] = gid if w else frow[x]
+
+
+@njit(cache=True, error_model="numpy", fastmath=True)
+def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: no cover - compiled
     """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
-    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and ``remap[fbuf]`` to
-    ``fid_out``."""
+    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and turn ``fbuf`` into
+    ``remap[fbuf]`` in place."""
     W = fbuf.shape[1]
     for y in range(r0, r1):
-        for x in range(W):
-            g = fbuf[y, x]
+        frow, crow, mrow = fbuf[y], rgb[y], material[y]
+        for xs in range(W):
+            x = np.uint64(xs)  # unsigned: no wrap-around test per index
+            g = frow[x]
             if g >= 0:
-                rgb[y, x, 0] = colour[g, 0]
-                rgb[y, x, 1] = colour[g, 1]
-                rgb[y, x, 2] = colour[g, 2]
-                material[y, x] = material_of[g]
-                fid_out[y, x] = remap[g]
+                u = np.uint64(g)
+                crow[x, 0] = colour[u, 0]
+                crow[x, 1] = colour[u, 1]
+                crow[x, 2] = colour[u, 2]
+                mrow[x] = material_of[u]
+                frow[x] = remap[u]
 
 
 @njit(cache=True, error_model="numpy")
