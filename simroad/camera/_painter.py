@@ -96,6 +96,7 @@ class MeshPainter:
     def __init__(self, camera: PinholeCamera, *, haze: np.ndarray | None = None) -> None:
         self.camera = camera
         self.haze = None if haze is None else np.asarray(haze, dtype=np.float32).reshape(3)
+        self._haze_or_none = np.full(3, np.nan, np.float32) if self.haze is None else self.haze
         c = camera.config
         K = camera.K
         u = (np.arange(c.width, dtype=np.float64) - K[0, 2]) / K[0, 0]
@@ -209,24 +210,18 @@ class MeshPainter:
             fbase += len(p.verts)
         if r1 <= r0:
             return fid, used
-        flags = np.concatenate(used)
-        drawn = np.flatnonzero(flags)
-        if colours is not None:
-            col = np.asarray(colours, dtype=np.float32)[drawn]
-        else:
-            col = np.concatenate([p.colour for p in preps])[drawn]
-        if self.haze is not None:
-            cen = np.concatenate([p.centroid for p in preps])[drawn]
-            R = c.max_range_m
-            d = np.hypot(cen[:, 0] - cx, cen[:, 1] - cy)
-            t = np.clip((d - 0.6 * R) / (0.4 * R), 0.0, 1.0)[:, None].astype(np.float32)
-            col = col + (t * t * (3 - 2 * t)) * (self.haze - col)
-        G = len(flags)
+        G = fbase
         colour = np.zeros((G, 3), dtype=np.uint8)
-        colour[drawn] = np.clip(col, 0, 255).astype(np.uint8)
-        mat = np.concatenate([p.mesh.material for p in preps]).astype(np.uint8)
+        mat = np.zeros(G, dtype=np.uint8)
         table = np.full(G, -1, dtype=np.int32)
-        table[drawn] = np.arange(len(drawn), dtype=np.int32) if remap else drawn
+        haze = self._haze_or_none
+        k, base = 0, 0
+        for p, u in zip(preps, used):
+            col = p.colour if colours is None else np.asarray(colours, dtype=np.float32)
+            k = _raster.face_table(
+                u, col, p.centroid, p.mesh.material, haze, cx, cy, c.max_range_m, base, k, remap, colour, mat, table
+            )
+            base += len(p.verts)
         _raster.shade(fid, r0, r1, colour, mat, table, rgb, material)
         return fid, used
 

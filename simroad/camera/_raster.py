@@ -9,7 +9,8 @@ and re-used by later processes and workers). Three kernels:
   view frustum and the range, culls back faces, faces beyond the range and faces
   below the level of detail, clips faces to the near plane, projects them and fills
   them scanline by scanline with a per-pixel depth test;
-* :func:`shade` (per frame): colour, material and depth through the face buffer.
+* :func:`face_table` and :func:`shade` (per frame): colour and material through the
+  face buffer, which becomes the face map.
 
 Depth is exact per pixel: the horizontal distance from the camera to where the
 pixel's ray meets the face's plane ``n . X = k`` (camera frame), ``hd / (n / k . ray)``
@@ -26,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["contact_shadows", "mesh_data", "rasterise", "shade"]
+__all__ = ["contact_shadows", "face_table", "mesh_data", "rasterise", "shade"]
 
 _TIE = 1e-3  # relative depth tolerance of a decal over its base face
 _MAXV = 17  # vertices of a near-clipped face (16, one more where the plane cuts)
@@ -268,6 +269,32 @@ def _span(zrow, frow, xn, x0, x1, a0f, b, rx0, ry0, r00, r01, hf, tie, gid):  # 
         w = (h < cur * den * tie) | (hf < cur)
         zrow[x] = min(h / den, hf) if w else cur
         frow[x] = gid if w else frow[x]
+
+
+@njit(cache=True, error_model="numpy")
+def face_table(used, colour, centroid, material, haze, cx, cy, R, base, k, remap, out_colour, out_mat, out_table):  # pragma: no cover  # fmt: skip
+    """Colour (uint8, faded into the sRGB ``haze`` over the last 40 % of the range
+    ``R``; no fading when ``haze`` is NaN), material and face-map entry of the faces
+    drawn (``used``) of one mesh, at ``base + f`` of the ``out_*`` tables. The map
+    entry is ``k, k + 1, ...`` in order when ``remap``, else the global index.
+    Returns the next ``k``."""
+    fade = not np.isnan(haze[0])
+    for f in range(used.shape[0]):
+        if not used[f]:
+            continue
+        g = base + f
+        s = np.float32(0.0)
+        if fade:
+            d = np.hypot(centroid[f, 0] - cx, centroid[f, 1] - cy)
+            t = np.float32(min(max((d - 0.6 * R) / (0.4 * R), 0.0), 1.0))
+            s = t * t * (np.float32(3) - np.float32(2) * t)
+        for a in range(3):
+            v = colour[f, a] + s * (haze[a] - colour[f, a]) if fade else colour[f, a]
+            out_colour[g, a] = np.uint8(min(max(v, np.float32(0)), np.float32(255)))
+        out_mat[g] = material[f]
+        out_table[g] = k if remap else g
+        k += 1
+    return k
 
 
 @njit(cache=True, error_model="numpy", fastmath=True)
