@@ -109,15 +109,23 @@ class MeshPainter:
         sides = np.array([[1.0, 0.0, -xl], [-1.0, 0.0, xr], [0.0, 1.0, -yt], [0.0, -1.0, yb]])
         self._sides = np.ascontiguousarray(sides / np.linalg.norm(sides, axis=1)[:, None])
         self._cache: OrderedDict[int, _Prepared] = OrderedDict()
+        self._pose_key: tuple[float, ...] | None = None
+        self._Mo = (np.eye(3), np.zeros(3))
 
     # ------------------------------------------------------------ transforms
     def _affine(self) -> tuple[np.ndarray, np.ndarray]:
         """``(M, o)`` with camera = world @ M + o (rows: points, world z up)."""
         cam = self.camera
-        pts = np.vstack([np.zeros(3), np.eye(3)])
-        ego2 = (pts[:, :2] - cam._pos) @ cam._R_we2.T
-        cp = (np.column_stack([ego2, -pts[:, 2]]) - cam._cam_ego) @ cam._R_ego.T
-        return np.ascontiguousarray(cp[1:] - cp[0]), np.ascontiguousarray(cp[0])
+        key = tuple(cam.pose)
+        if self._pose_key == key:
+            return self._Mo
+        A = np.zeros((3, 3))
+        A[:2, :2] = cam._R_we2.T
+        A[2, 2] = -1.0
+        o = (np.append(-cam._pos @ cam._R_we2.T, 0.0) - cam._cam_ego) @ cam._R_ego.T
+        self._Mo = (np.ascontiguousarray(A @ cam._R_ego.T), np.ascontiguousarray(o))
+        self._pose_key = key
+        return self._Mo
 
     def _prepared(self, mesh: Mesh) -> _Prepared:
         key = id(mesh)

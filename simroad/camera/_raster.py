@@ -330,9 +330,10 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
     """
     H, W = ground.shape
     fx, fy, px, py, near = cam[0], cam[1], cam[2], cam[3], cam[4]
-    gain = np.ones((H, W), dtype=np.float32)
+    N = boxes.shape[0]
+    rect = np.full((N, 4), -1, dtype=np.int64)
     y_lo, y_hi = H, -1
-    for i in range(boxes.shape[0]):
+    for i in range(N):
         ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
         for k in range(4):  # screen box of the footprint clipped to the near plane
             for e in range(2):
@@ -348,13 +349,19 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
                 ulo, uhi, vlo, vhi = min(ulo, u), max(uhi, u), min(vlo, v), max(vhi, v)
         if not (ulo <= uhi) or uhi < 0 or vhi < 0 or ulo > W - 1 or vlo > H - 1:
             continue
-        x0, x1 = max(0, int(np.floor(ulo))), min(W - 1, int(np.ceil(uhi)))
-        y0, y1 = max(0, int(np.floor(vlo))), min(H - 1, int(np.ceil(vhi)))
-        y_lo, y_hi = min(y_lo, y0), max(y_hi, y1)
+        rect[i, 0], rect[i, 2] = max(0, int(np.floor(ulo))), min(W - 1, int(np.ceil(uhi)))
+        rect[i, 1], rect[i, 3] = max(0, int(np.floor(vlo))), min(H - 1, int(np.ceil(vhi)))
+        y_lo, y_hi = min(y_lo, rect[i, 1]), max(y_hi, rect[i, 3])
+    if y_hi < y_lo:
+        return
+    gain = np.ones((y_hi - y_lo + 1, W), dtype=np.float32)
+    for i in range(N):
+        if rect[i, 0] < 0:
+            continue
         ex, ey, hh, hl, hw = boxes[i, 0], boxes[i, 1], boxes[i, 2], boxes[i, 3], boxes[i, 4]
         cr, sr = np.cos(hh), np.sin(hh)
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
+        for y in range(rect[i, 1], rect[i, 3] + 1):
+            for x in range(rect[i, 0], rect[i, 2] + 1):
                 if not ground[y, x]:
                     continue
                 dx, dy = gx[y, x] - ex, gy[y, x] - ey
@@ -365,11 +372,11 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
                 if a <= 0.0:
                     continue
                 g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / 2.2)
-                if g < gain[y, x]:
-                    gain[y, x] = g
-    for y in range(max(y_lo, 0), y_hi + 1):
+                if g < gain[y - y_lo, x]:
+                    gain[y - y_lo, x] = g
+    for y in range(y_lo, y_hi + 1):
         for x in range(W):
-            g = gain[y, x]
+            g = gain[y - y_lo, x]
             if g < 1.0:
                 for c in range(3):
                     rgb[y, x, c] = np.uint8(rgb[y, x, c] * g)
