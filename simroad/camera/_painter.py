@@ -62,7 +62,9 @@ def face_colours(mesh: Mesh) -> np.ndarray:
     if not len(mesh):
         return np.zeros((0, 3), dtype=np.uint8)
     lin = radiance(mesh.albedo, mesh.normal[:, 2].astype(np.float32))
-    return linear_to_srgb(np.ascontiguousarray(lin[None]))[0]
+    # One row of pixels, at least two wide (OpenCV reads a 1x1x3 image as a scalar).
+    row = np.ascontiguousarray(np.repeat(lin[None], 2, axis=1) if len(lin) == 1 else lin[None])
+    return linear_to_srgb(row)[0][: len(lin)]
 
 
 class _Prepared:

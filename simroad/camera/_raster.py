@@ -29,6 +29,8 @@ from numba import njit
 
 __all__ = ["contact_shadows", "face_table", "mesh_data", "rasterise", "shade"]
 
+#: fast-math flags: no ``nnan``/``ninf`` (the sky's depth is inf)
+_FAST = {"nsz", "arcp", "contract", "afn"}
 _TIE = 1e-3  # relative depth tolerance of a decal over its base face
 _MAXV = 17  # vertices of a near-clipped face (16, one more where the plane cuts)
 _BAND = 32  # rows filled together
@@ -81,7 +83,7 @@ def mesh_data(verts, counts, normal, solid):  # pragma: no cover - compiled
     return offset, centroid, decal, sphere
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
 def rasterise(
     verts, counts, normal, offset, solid, decal, sphere, M, o, cam, sides, xn, yn, ray,
     zbuf, fbuf, face_base, lod, decal_lod,
@@ -206,17 +208,17 @@ def rasterise(
     return used, r_lo, r_hi
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
 def _fill(q, UV, m, pl, gid, is_decal, ya, yb, xn, yn, ray, zbuf, fbuf, XL, XR):  # pragma: no cover
     """Fill rows ``ya..yb`` of screen polygon ``UV[q, :m]`` with its depth test."""
     W = zbuf.shape[1]
     vlo, vhi = np.inf, -np.inf
     for i in range(m):
         vlo, vhi = min(vlo, UV[q, i, 1]), max(vhi, UV[q, i, 1])
-    # x extent per row, edge by edge: where the row's centre line meets the face
-    # (clamped into the face's rows); a face less than a pixel tall: its extent
-    # within the row's band, so that a thin sliver keeps its length.
-    thin = 0.5 if vhi - vlo < 1.0 else 0.0
+    # x extent per row, edge by edge: of the face within the row's band (y +- 0.5),
+    # and every pixel that extent touches: a pixel the face covers in part is drawn
+    # (as OpenCV fills polygons), so that a thin pole or rail is never lost.
+    thin = 0.5
     XL[ya : yb + 1] = np.inf
     XR[ya : yb + 1] = -np.inf
     for i in range(m):
@@ -252,7 +254,7 @@ def _fill(q, UV, m, pl, gid, is_decal, ya, yb, xn, yn, ray, zbuf, fbuf, XL, XR):
         _span(zbuf[y], fbuf[y], xn, x0, x1, a0f, b, rx0, ry0, r00, r01, hf, tie, np.int32(gid))
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
 def _span(zrow, frow, xn, x0, x1, a0f, b, rx0, ry0, r00, r01, hf, tie, gid):  # pragma: no cover
     """Depth-test pixels ``x0..x1`` of one row: the face wins where
     ``d = min(hd / den, hmax) < cur`` (``hd``: horizontal distance per unit of camera
@@ -297,7 +299,7 @@ def face_table(used, colour, centroid, material, haze, cx, cy, R, base, k, remap
     return k
 
 
-@njit(cache=True, error_model="numpy", fastmath=True)
+@njit(cache=True, error_model="numpy", fastmath=_FAST)
 def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: no cover - compiled
     """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
     ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and turn ``fbuf`` into
