@@ -215,3 +215,41 @@ def test_paint_parts_returns_the_drawn_faces_it_indexes():
     # Same pixels as one painted concatenation.
     ref, *_ = _paint(cam, Mesh.concat([a, b]))
     np.testing.assert_array_equal(ref >= 0, on)
+
+
+def test_intersecting_solids_are_exact_per_pixel():
+    # A trunk into a crown (two solids that intersect): the part of the trunk inside
+    # the crown is hidden, the part below it is seen, and where the trunk passes the
+    # crown's underside it hides the underside; no order of the solids does all three.
+    cam = _camera()
+    crown = _box(30, 0, 4, 4, 3, 7, material=VEGETATION)
+    trunk = _box(30, 0, 0.5, 0.5, 0, 6, material=POLE)
+    c_alone, _, _, d_crown = _paint(cam, crown)
+    t_alone, _, _, d_trunk = _paint(cam, trunk)
+    both = (c_alone >= 0) & (t_alone >= 0)
+    crown_first = both & (d_crown < 0.999 * d_trunk)
+    trunk_first = both & (d_trunk < 0.999 * d_crown)
+    assert crown_first.sum() > 50 and trunk_first.sum() > 0
+    for parts in ([crown, trunk], [trunk, crown]):
+        _, _, material, depth = _paint(cam, Mesh.concat(parts))
+        assert np.all(material[crown_first] == VEGETATION)
+        assert np.all(material[trunk_first] == POLE)
+        np.testing.assert_array_equal(depth[both], np.minimum(d_crown, d_trunk)[both])
+        below = (t_alone >= 0) & (c_alone < 0)
+        assert below.sum() > 20 and np.all(material[below] == POLE)
+
+
+def test_a_thin_pole_far_away_is_not_lost():
+    cam = _camera()
+    pole = _box(80, 3, 0.12, 0.12, 0, 8, material=POLE)  # a third of a pixel wide
+    fid, _, material, _ = _paint(cam, pole)
+    rows = np.flatnonzero((material == POLE).any(axis=1))
+    assert len(rows) >= 10 and np.all(np.diff(rows) == 1)  # an unbroken line
+
+
+def test_same_mesh_same_frame():
+    cam = _camera()
+    mesh = Mesh.concat([_box(30, 0, 4, 6, 0, 5), _box(20, 2, 1, 1, 0, 3, material=POLE)])
+    a, b = _paint(cam, mesh), _paint(cam, mesh)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
