@@ -171,8 +171,7 @@ class MeshPainter:
         ndarray int32 (H, W)
             Index into ``mesh`` of the face each pixel sees; -1 where none.
         """
-        fid, used = self._paint([mesh] if len(mesh) else [], rgb, material, depth, colours, remap=False)
-        return fid
+        return self._paint([mesh] if len(mesh) else [], rgb, material, depth, colours, remap=False)[0]
 
     def paint_parts(
         self, parts: Sequence[Mesh], rgb: np.ndarray, material: np.ndarray, depth: np.ndarray
@@ -207,7 +206,9 @@ class MeshPainter:
             return fid, []
         M, o = self._affine()
         cx, cy = cam.position_world
-        camv = np.array([cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2], NEAR_M, c.max_range_m, cx, cy, c.mount_height_m])
+        camv = np.array(
+            [cam.K[0, 0], cam.K[1, 1], cam.K[0, 2], cam.K[1, 2], NEAR_M, c.max_range_m, cx, cy, c.mount_height_m]
+        )
         preps = [self._prepared(m) for m in parts]
         used, r0, r1, fbase = [], H, 0, 0
         for p in preps:

@@ -4,9 +4,11 @@ One ``cv2.warpPerspective`` of the world window per frame for the colour and one
 nearest-neighbour warp for the material (hence the road mask); the sky and the
 per-pixel ground distance depend only on the mounting and are computed once.
 Things with height (the world's scenery and the other vehicles, one
-:class:`~simroad.camera.mesh.Mesh`) are painted over the ground with exact occlusion
-by :mod:`simroad.camera._painter`; every vehicle first darkens the ground around its
-footprint (a soft contact shadow).
+:class:`~simroad.camera.mesh.Mesh` each) are drawn over the ground by the z-buffer
+rasteriser of :mod:`simroad.camera._painter` (exact occlusion and depth per pixel,
+the flat ground's depth as the initial buffer); every vehicle first darkens the
+ground around its footprint (a soft contact shadow, compiled in
+:func:`simroad.camera._raster.contact_shadows`).
 """
 
 from __future__ import annotations

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera
-from simroad.camera._raster import mesh_data
 from simroad.camera._painter import MeshPainter
+from simroad.camera._raster import mesh_data
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
 from simroad.camera.world import BUILDING, OVERPASS, POLE, VEGETATION, WALL
@@ -157,7 +157,7 @@ def test_decals_are_found_and_add_nothing_to_the_bounding_sphere():
     rear = int(np.argmin(box.normal[:, 0]))  # faces the camera (normal -x)
     m = _with_decal(box, rear)
     args = (m.vertices, m.counts.astype(np.int64), m.normal, m.solid.astype(np.int64))
-    offset, centroid, decal, sphere = mesh_data(*args)
+    offset, _, decal, sphere = mesh_data(*args)
     assert decal.sum() == 1 and decal[6]  # the window, not its facade
     np.testing.assert_allclose(sphere[0], [30, 0, 2.5, math.sqrt(2**2 + 3**2 + 2.5**2)])
     np.testing.assert_allclose(offset, np.einsum("fc,fc->f", m.normal, m.vertices[:, 0]))
@@ -242,7 +242,7 @@ def test_intersecting_solids_are_exact_per_pixel():
 def test_a_thin_pole_far_away_is_not_lost():
     cam = _camera()
     pole = _box(80, 3, 0.12, 0.12, 0, 8, material=POLE)  # a third of a pixel wide
-    fid, _, material, _ = _paint(cam, pole)
+    _, _, material, _ = _paint(cam, pole)
     rows = np.flatnonzero((material == POLE).any(axis=1))
     assert len(rows) >= 10 and np.all(np.diff(rows) == 1)  # an unbroken line
 
