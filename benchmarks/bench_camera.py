@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 from _harness import bare_racetrack_step, interleaved, one_core, table
 
-SCENARIOS = ("racetrack", "town")
-SIZES = ((320, 180, 3.0), (1280, 720, 25.0))  # width, height, the issue's target (ms)
+SCENARIOS = ("racetrack", "highway", "winding", "town")
+# width, height, the issue's target (ms) with the sensor, the renderer's share of it
+SIZES = ((320, 180, 3.0, 1.2), (1280, 720, 25.0, 12.0))
 
 
 def main() -> None:
@@ -22,7 +23,7 @@ def main() -> None:
     hw = gym.make("racetrack-v0", render_mode="rgb_array", config={"offscreen_rendering": True}).unwrapped
     hw.reset(seed=0)
 
-    def frame(env, poses):
+    def frame(env, poses, sensor=True):
         """The env's own renderer (its world's scenery at the default density, the
         other vehicles) and its sensor, over poses along the route."""
         it = {"k": 0}
@@ -31,7 +32,8 @@ def main() -> None:
             pose, others, speed = poses[it["k"] % len(poses)]
             it["k"] += 1
             fr = env.renderer.render(pose, others)
-            env.sensor.apply(fr.rgb, speed_m_s=speed, depth=fr.depth)
+            if sensor:
+                env.sensor.apply(fr.rgb, speed_m_s=speed, depth=fr.depth)
 
         return run
 
@@ -47,13 +49,16 @@ def main() -> None:
         for _ in range(40):  # poses along the route, re-used at every size
             small.step(autopilot_env_action(small))
             poses.append((small._pose(), small._others(), float(small.vehicle.speed)))
-        for w, h, target in SIZES:
+        for w, h, target, target_render in SIZES:
             env = small if (w, h) == (320, 180) else RoadCamEnv(scenario=sc, width=w, height=h)
             if env is not small:
                 env.reset(seed=0)
             name = f"{sc}: frame + GT + sensor {w}x{h}"
             candidates[name] = frame(env, poses)
             targets[name] = target
+            name = f"{sc}: frame + GT (renderer only) {w}x{h}"
+            candidates[name] = frame(env, poses, sensor=False)
+            targets[name] = target_render
     times = interleaved(candidates, repeats=40)
     print(
         table(

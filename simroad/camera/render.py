@@ -4,9 +4,11 @@ One ``cv2.warpPerspective`` of the world window per frame for the colour and one
 nearest-neighbour warp for the material (hence the road mask); the sky and the
 per-pixel ground distance depend only on the mounting and are computed once.
 Things with height (the world's scenery and the other vehicles, one
-:class:`~simroad.camera.mesh.Mesh`) are painted over the ground with exact occlusion
-by :mod:`simroad.camera._painter`; every vehicle first darkens the ground around its
-footprint (a soft contact shadow).
+:class:`~simroad.camera.mesh.Mesh` each) are drawn over the ground by the z-buffer
+rasteriser of :mod:`simroad.camera._painter` (exact occlusion and depth per pixel,
+the flat ground's depth as the initial buffer); every vehicle first darkens the
+ground around its footprint (a soft contact shadow, compiled in
+:func:`simroad.camera._raster.contact_shadows`).
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from simroad.camera._painter import MeshPainter, clip_near
+from simroad.camera import _raster
+from simroad.camera._painter import NEAR_M, MeshPainter
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
@@ -161,9 +164,9 @@ class CameraRenderer:
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
         self._footprint = np.vstack([hull, [[c.forward_offset_m, 0.0]]]).astype(float)
         self._painter = MeshPainter(camera, haze=self._haze)
-        self._ground_flat = camera.ground_valid.ravel()
+        self._ground = np.ascontiguousarray(camera.ground_valid)
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
-        self._gx, self._gy = eg[..., 0].ravel(), eg[..., 1].ravel()
+        self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -265,44 +268,29 @@ class CameraRenderer:
 
         The occlusion is a smooth function of the signed ground distance ``sd`` (m) to
         the vehicle's footprint: ``AO_STRENGTH`` from 0.25 m under the car, 0.7 of it at
-        the footprint's edge, none 0.45 m outside. Material and road mask are
-        untouched (the road is still road in a shadow).
+        the footprint's edge, none 0.45 m outside (where footprints meet, the
+        strongest). Material and road mask are untouched (the road is still road in a
+        shadow). Only the pixels in the screen box of each grown footprint are visited
+        (:func:`simroad.camera._raster.contact_shadows`).
         """
         cam = self.camera
-        c = cam.config
-        label = np.full((c.height, c.width), -1, dtype=np.int32)
-        cpos = cam.position_world
-        order = sorted(
-            range(len(vehicles)), key=lambda i: -math.hypot(vehicles[i].x - cpos[0], vehicles[i].y - cpos[1])
-        )
-        for i in order:
-            v = vehicles[i]
-            grown = VehicleBox(v.x, v.y, v.heading, v.length + 2 * _AO_REACH_M, v.width + 2 * _AO_REACH_M, v.rgb)
-            pc = clip_near(cam.world_to_camera(np.column_stack([grown.corners(), np.zeros(4)])))
-            if len(pc) < 3:
-                continue
-            pts = np.round(cam.camera_to_image(pc) * 16).astype(np.int32)
-            cv2.fillConvexPoly(label, pts, i, lineType=cv2.LINE_8, shift=4)
-        flat = label.ravel()
-        idx = np.flatnonzero((flat >= 0) & self._ground_flat)
-        if not len(idx):
-            return
-        k = flat[idx]
+        k = cam.K
         x, y, h = cam.pose
+        v = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in vehicles])
+        c, s = np.cos(v[:, 2]), np.sin(v[:, 2])
+        hl, hw = v[:, 3] + _AO_REACH_M, v[:, 4] + _AO_REACH_M
+        corners = np.zeros((len(v), 4, 3))
+        for j, (a, b) in enumerate(((1, -1), (1, 1), (-1, 1), (-1, -1))):
+            corners[:, j, 0] = v[:, 0] + a * hl * c + b * hw * s
+            corners[:, j, 1] = v[:, 1] + a * hl * s - b * hw * c
+        M, o = self._painter._affine()
         ch, sh = math.cos(h), math.sin(h)
-        vp = np.array([[v.x - x, v.y - y, v.heading - h, v.length / 2, v.width / 2] for v in vehicles])
-        ex = ch * vp[:, 0] + sh * vp[:, 1]  # vehicle centres in the ego frame
-        ey = -sh * vp[:, 0] + ch * vp[:, 1]
-        dx, dy = self._gx[idx] - ex[k], self._gy[idx] - ey[k]
-        cr, sr = np.cos(vp[k, 2]), np.sin(vp[k, 2])
-        qx = np.abs(cr * dx + sr * dy) - vp[k, 3]
-        qy = np.abs(-sr * dx + cr * dy) - vp[k, 4]
-        sd = np.hypot(np.maximum(qx, 0.0), np.maximum(qy, 0.0)) + np.minimum(np.maximum(qx, qy), 0.0)
-        a = np.clip((_AO_REACH_M - sd) / (_AO_REACH_M + _AO_INNER_M), 0.0, 1.0)
-        occ = AO_STRENGTH * a * a * (3 - 2 * a)
-        gain = ((1.0 - occ) ** (1 / 2.2)).astype(np.float32)  # in the sRGB-encoded frame
-        px = rgb.reshape(-1, 3)
-        px[idx] = (px[idx] * gain[:, None]).astype(np.uint8)
+        dx, dy = v[:, 0] - x, v[:, 1] - y
+        boxes = np.column_stack([ch * dx + sh * dy, -sh * dx + ch * dy, v[:, 2] - h, v[:, 3], v[:, 4]])
+        cam_v = np.array([k[0, 0], k[1, 1], k[0, 2], k[1, 2], NEAR_M])
+        _raster.contact_shadows(
+            rgb, self._ground, self._gx, self._gy, boxes, corners @ M + o, cam_v, AO_STRENGTH, _AO_INNER_M, _AO_REACH_M
+        )
 
 
 def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:

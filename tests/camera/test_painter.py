@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera
-from simroad.camera._occlusion import prepare
 from simroad.camera._painter import MeshPainter
+from simroad.camera._raster import mesh_data
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
 from simroad.camera.world import BUILDING, OVERPASS, POLE, VEGETATION, WALL
@@ -152,13 +152,15 @@ def _with_decal(box: Mesh, face: int, shrink: float = 0.25, albedo=(0.05, 0.05, 
     )
 
 
-def test_decals_are_found_and_add_no_plane_or_corner():
+def test_decals_are_found_and_add_nothing_to_the_bounding_sphere():
     box = _box(30, 0, 4, 6, 0, 5)
     rear = int(np.argmin(box.normal[:, 0]))  # faces the camera (normal -x)
-    prep = prepare(_with_decal(box, rear))
-    assert prep.decal.sum() == 1 and prep.decal[prep.face == 6].all()
-    assert prep.planes.shape[1] == 6  # the box's six planes
-    assert prep.corners.shape[1] == 8  # the box's corners, the window adds none
+    m = _with_decal(box, rear)
+    args = (m.vertices, m.counts.astype(np.int64), m.normal, m.solid.astype(np.int64))
+    offset, _, decal, sphere = mesh_data(*args)
+    assert decal.sum() == 1 and decal[6]  # the window, not its facade
+    np.testing.assert_allclose(sphere[0], [30, 0, 2.5, math.sqrt(2**2 + 3**2 + 2.5**2)])
+    np.testing.assert_allclose(offset, np.einsum("fc,fc->f", m.normal, m.vertices[:, 0]))
 
 
 def test_a_window_is_drawn_on_its_facade_and_hides_nothing_else():
@@ -177,7 +179,9 @@ def test_a_window_is_drawn_on_its_facade_and_hides_nothing_else():
 
 def test_a_tree_in_front_of_a_facade_and_a_pole_beside_it():
     cam = _camera()
-    facade = _box(40, 8, 30, 10, 0, 12, material=BUILDING)  # along the road, on the right
+    # Along the road, on the right, clear of the tree (y in 4.6..14.6 vs 2.5..4.5: were
+    # they to intersect, the part of the tree inside the building would be hidden).
+    facade = _box(40, 9.6, 30, 10, 0, 12, material=BUILDING)
     tree = _box(33, 3.5, 2, 2, 0, 5, material=VEGETATION)
     pole = _box(50, 2.5, 0.3, 0.3, 0, 6, material=POLE)
     for parts in ([facade, tree, pole], [pole, tree, facade], [tree, facade, pole]):
@@ -211,3 +215,41 @@ def test_paint_parts_returns_the_drawn_faces_it_indexes():
     # Same pixels as one painted concatenation.
     ref, *_ = _paint(cam, Mesh.concat([a, b]))
     np.testing.assert_array_equal(ref >= 0, on)
+
+
+def test_intersecting_solids_are_exact_per_pixel():
+    # A trunk into a crown (two solids that intersect): the part of the trunk inside
+    # the crown is hidden, the part below it is seen, and where the trunk passes the
+    # crown's underside it hides the underside; no order of the solids does all three.
+    cam = _camera()
+    crown = _box(30, 0, 4, 4, 3, 7, material=VEGETATION)
+    trunk = _box(30, 0, 0.5, 0.5, 0, 6, material=POLE)
+    c_alone, _, _, d_crown = _paint(cam, crown)
+    t_alone, _, _, d_trunk = _paint(cam, trunk)
+    both = (c_alone >= 0) & (t_alone >= 0)
+    crown_first = both & (d_crown < 0.999 * d_trunk)
+    trunk_first = both & (d_trunk < 0.999 * d_crown)
+    assert crown_first.sum() > 50 and trunk_first.sum() > 0
+    for parts in ([crown, trunk], [trunk, crown]):
+        _, _, material, depth = _paint(cam, Mesh.concat(parts))
+        assert np.all(material[crown_first] == VEGETATION)
+        assert np.all(material[trunk_first] == POLE)
+        np.testing.assert_array_equal(depth[both], np.minimum(d_crown, d_trunk)[both])
+        below = (t_alone >= 0) & (c_alone < 0)
+        assert below.sum() > 20 and np.all(material[below] == POLE)
+
+
+def test_a_thin_pole_far_away_is_not_lost():
+    cam = _camera()
+    pole = _box(80, 3, 0.12, 0.12, 0, 8, material=POLE)  # a third of a pixel wide
+    _, _, material, _ = _paint(cam, pole)
+    rows = np.flatnonzero((material == POLE).any(axis=1))
+    assert len(rows) >= 10 and np.all(np.diff(rows) == 1)  # an unbroken line
+
+
+def test_same_mesh_same_frame():
+    cam = _camera()
+    mesh = Mesh.concat([_box(30, 0, 4, 6, 0, 5), _box(20, 2, 1, 1, 0, 3, material=POLE)])
+    a, b = _paint(cam, mesh), _paint(cam, mesh)
+    for x, y in zip(a, b):
+        np.testing.assert_array_equal(x, y)
