@@ -40,6 +40,7 @@ __all__ = [
     "SCENARIO_NAMES",
     "SIMULATION_HZ",
     "ScenarioSpec",
+    "generated_road_config",
     "get_scenario",
     "make_highway_env",
 ]
@@ -244,3 +245,19 @@ def get_scenario(name: str) -> ScenarioSpec:
 def make_highway_env(scenario: str, *, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
     """Create the highway-env environment behind ``scenario`` (a key of :data:`SCENARIOS`)."""
     return get_scenario(scenario).make_env(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+
+
+def generated_road_config(spec: ScenarioSpec) -> dict[str, Any]:
+    """highway-env config keys every road simroad generates (winding, town) shares:
+    observation and action types, rates, traffic counts, ego speed, from ``spec``."""
+    return {
+        "observation": {"type": "Kinematics"},
+        "action": {"type": "ContinuousAction", "longitudinal": False, "lateral": True},
+        "simulation_frequency": spec.simulation_hz,
+        "policy_frequency": spec.policy_hz,
+        "duration": 200,
+        "lane_width": spec.lane_width_m,
+        **spec.traffic_vehicles,
+        "ego_speed": spec.cruise_speed_m_s,
+        "collision_reward": -1,
+    }

@@ -25,7 +25,7 @@ from highway_env.road.road import RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
-from simroad.envs.scenarios import get_scenario
+from simroad.envs.scenarios import generated_road_config, get_scenario
 
 __all__ = [
     "Block",
@@ -266,16 +266,8 @@ class TownStreetEnv(AbstractEnv):
         utils.update_config(
             config,
             {
-                "observation": {"type": "Kinematics"},
-                "action": {"type": "ContinuousAction", "longitudinal": False, "lateral": True},
-                "simulation_frequency": spec.simulation_hz,
-                "policy_frequency": spec.policy_hz,
-                "duration": 200,
+                **generated_road_config(spec),
                 "road_length": spec.route_m + 40.0,
-                "lane_width": spec.lane_width_m,
-                **spec.traffic_vehicles,
-                "ego_speed": spec.cruise_speed_m_s,
-                "collision_reward": -1,
             },
         )
         return config

@@ -18,7 +18,7 @@ from highway_env.road.lane import CircularLane, LineType, StraightLane
 from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
-from simroad.envs.scenarios import get_scenario
+from simroad.envs.scenarios import generated_road_config, get_scenario
 
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments"]
 
@@ -152,17 +152,9 @@ class WindingRoadEnv(AbstractEnv):
         utils.update_config(
             config,
             {
-                "observation": {"type": "Kinematics"},
-                "action": {"type": "ContinuousAction", "longitudinal": False, "lateral": True},
-                "simulation_frequency": spec.simulation_hz,
-                "policy_frequency": spec.policy_hz,
-                "duration": 200,
+                **generated_road_config(spec),
                 "road_length": 2000.0,
-                "lane_width": spec.lane_width_m,
                 "min_radius": 45.0,
-                **spec.traffic_vehicles,
-                "ego_speed": spec.cruise_speed_m_s,
-                "collision_reward": -1,
             },
         )
         return config
