@@ -26,6 +26,28 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.camera.codes import (  # re-exported: importers of simroad.camera.world keep working
+    ASPHALT,
+    BUILDING,
+    GROUND_MATERIALS,
+    GUARDRAIL,
+    IS_GROUND,
+    IS_ROAD,
+    KERB,
+    MARKING,
+    MATERIAL_NAMES,
+    OVERPASS,
+    POLE,
+    ROAD_MATERIALS,
+    ROADSIDE,
+    SHOULDER,
+    SIDEWALK,
+    SIGN,
+    SKY,
+    VEGETATION,
+    VEHICLE,
+    WALL,
+)
 from simroad.camera.lanes import lane_signed_distance, supports_vectorised
 from simroad.camera.mesh import Mesh
 from simroad.camera.palette import Palette, draw_palette
@@ -59,44 +81,6 @@ __all__ = [
     "lane_shapes",
 ]
 
-ROADSIDE, SHOULDER, ASPHALT, MARKING, VEHICLE, SKY = 0, 1, 2, 3, 4, 5
-SIDEWALK, KERB = 6, 7  # ground beside a town street (not road)
-VEGETATION, POLE, SIGN, BUILDING, WALL, GUARDRAIL, OVERPASS = 8, 9, 10, 11, 12, 13, 14
-
-#: Name of every material code (docs/materials.md describes each).
-MATERIAL_NAMES: dict[int, str] = {
-    ROADSIDE: "roadside",
-    SHOULDER: "shoulder",
-    ASPHALT: "asphalt",
-    MARKING: "marking",
-    VEHICLE: "vehicle",
-    SKY: "sky",
-    SIDEWALK: "sidewalk",
-    KERB: "kerb",
-    VEGETATION: "vegetation",
-    POLE: "pole",
-    SIGN: "sign",
-    BUILDING: "building",
-    WALL: "wall",
-    GUARDRAIL: "guardrail",
-    OVERPASS: "overpass",
-}
-#: Codes a ground texel can carry.
-GROUND_MATERIALS = frozenset({ROADSIDE, SHOULDER, ASPHALT, MARKING, SIDEWALK, KERB})
-#: The drivable surface: asphalt and the markings painted on it.
-ROAD_MATERIALS = frozenset({ASPHALT, MARKING})
-
-
-def _lookup(codes: frozenset[int]) -> np.ndarray:
-    out = np.zeros(256, dtype=bool)
-    out[list(codes)] = True
-    out.flags.writeable = False
-    return out
-
-
-#: ``IS_GROUND[material]`` / ``IS_ROAD[material]``: vectorised membership tests.
-IS_GROUND = _lookup(GROUND_MATERIALS)
-IS_ROAD = _lookup(ROAD_MATERIALS)
 
 MARKING_WIDTH_M = 0.15
 DASH_LENGTH_M = 3.0
