@@ -267,13 +267,8 @@ def apply_sensor(
             scale = motion_blur_scale(d, focal_px=fx, cx=cx, travel_m=travel)
             frame = radial_motion_blur(srgb_to_linear(rgb), scale, cx=cx, foe_row=float(camera.horizon_row))
     full = float(2**params.adc_bits - 1)
-    vig = (
-        vignetting_gain(h, w, fx, cx, cy, params.vignetting_exponent).reshape(h, 3 * w)
-        if params.vignetting
-        else _ones(h, 3 * w)
-    )
-    if white_balance is not None:  # the episode's white-balance gains, per channel value
-        vig = vig * np.tile(np.asarray(white_balance, np.float32), w)[None, :]
+    wb = None if white_balance is None else tuple(float(g) for g in white_balance)
+    vig = _relative_gain(h, w, fx, cx, cy, params.vignetting_exponent if params.vignetting else None, wb)
     k = full / params.full_well_e
     field, oy, ox, sign = _NO_NOISE, 0, 0, 1.0
     if params.shot_noise or params.read_noise_e > 0.0:
@@ -307,11 +302,22 @@ _NO_NOISE = np.zeros((1, 1, 3), np.float32)
 _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
 
 
-@functools.lru_cache(maxsize=4)
-def _ones(height: int, width: int) -> np.ndarray:
-    ones = np.ones((height, width), np.float32)
-    ones.flags.writeable = False
-    return ones
+@functools.lru_cache(maxsize=16)
+def _relative_gain(
+    h: int, w: int, fx: float, cx: float, cy: float, exponent: float | None, wb: tuple[float, ...] | None
+) -> np.ndarray:
+    """Vignetting times the white-balance gains per channel value, float32 (H, 3W),
+    read-only: computed once per camera and episode, not per frame."""
+    gain = (
+        vignetting_gain(h, w, fx, cx, cy, exponent).reshape(h, 3 * w)
+        if exponent is not None
+        else np.ones((h, 3 * w), np.float32)
+    )
+    if wb is not None:
+        gain = gain * np.tile(np.asarray(wb, np.float32), w)[None, :]
+    gain = np.ascontiguousarray(gain, dtype=np.float32)
+    gain.flags.writeable = False
+    return gain
 
 
 class Sensor:

@@ -19,11 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from highway_env import utils
-from highway_env.envs.common.abstract import AbstractEnv
 from highway_env.road.lane import AbstractLane, LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
+from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
 from simroad.envs.scenarios import generated_road_config, get_scenario
 
@@ -248,7 +248,7 @@ def _cross_streets(
         polys.append(np.array([s0, s1, s1 - own * cw, s0 - own * cw], dtype=float))
 
 
-class TownStreetEnv(AbstractEnv):
+class TownStreetEnv(GeneratedRoadEnv):
     """A town street of blocks and junctions, generated from the reset seed.
 
     Config keys beyond highway-env's: ``road_length`` (m, main street without
@@ -315,12 +315,3 @@ class TownStreetEnv(AbstractEnv):
             room = max(0.0, lane.width_at(0.0) / 2 - ParkedVehicle.WIDTH / 2 - 0.05)
             lateral = float(rng.uniform(0.0, room))  # towards the kerb (right of the strip's travel)
             self.road.vehicles.append(ParkedVehicle(self.road, index, lane, s + jitter, lateral))
-
-    def _reward(self, action: np.ndarray) -> float:
-        return 0.0
-
-    def _is_terminated(self) -> bool:
-        return bool(self.vehicle.crashed)
-
-    def _is_truncated(self) -> bool:
-        return bool(self.time >= self.config["duration"])

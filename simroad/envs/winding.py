@@ -13,11 +13,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from highway_env import utils
-from highway_env.envs.common.abstract import AbstractEnv
 from highway_env.road.lane import CircularLane, LineType, StraightLane
 from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
+from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs.scenarios import generated_road_config, get_scenario
 
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments"]
@@ -137,7 +137,7 @@ def build_winding_network(segments: list[Segment], *, lane_width_m: float) -> tu
     return net, nodes
 
 
-class WindingRoadEnv(AbstractEnv):
+class WindingRoadEnv(GeneratedRoadEnv):
     """A two-lane country road of straights and arcs, generated from the reset seed.
 
     Config keys beyond highway-env's: ``road_length`` (m, >= 1500 by default 2000),
@@ -194,12 +194,3 @@ class WindingRoadEnv(AbstractEnv):
             v = IDMVehicle(self.road, lane.position(s, 0.0), lane.heading_at(s), speed=float(rng.uniform(10, 16)))
             v.plan_route_to("o0")
             self.road.vehicles.append(v)
-
-    def _reward(self, action: np.ndarray) -> float:
-        return 0.0
-
-    def _is_terminated(self) -> bool:
-        return bool(self.vehicle.crashed)
-
-    def _is_truncated(self) -> bool:
-        return bool(self.time >= self.config["duration"])
