@@ -4,18 +4,19 @@ Each is a function of arrays and physical parameters (plus read-only caches keye
 the image geometry); :mod:`simroad.camera.sensor` composes them in physical order
 (see its docstring and docs/camera.md). The frame itself goes through the fused
 compiled pass of :mod:`simroad.camera._sensor_kernel` from the exposure on (the
-OpenCV noise and response steps here are its reference); the motion blur runs here.
+OpenCV noise and response steps here are its reference); the motion blur is the
+compiled :mod:`simroad.camera._blur_kernel`.
 """
 
 from __future__ import annotations
 
 import functools
-import math
 
 import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.camera._blur_kernel import radial_blur
 from simroad.noise.radiometry import linear_to_srgb
 
 __all__ = [
@@ -140,16 +141,18 @@ def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m
 
 
 def radial_motion_blur(
-    lin: np.ndarray, scale: np.ndarray, *, cx: float, foe_row: float, max_step_px: float = 2.0
+    lin: np.ndarray, scale: np.ndarray, *, cx: float, foe_row: float, max_step_px: float = 1.0
 ) -> np.ndarray:
     """Box-blur each pixel along its flow line from the focus of expansion, in place.
 
     Pixel ``p`` integrates the radiance found at ``p + t (p - e) s(p)`` for ``t`` in
     [0, 1] (the points that crossed it during the exposure, which ends at the rendered
-    pose). The box is sampled with ``2**n`` bilinear taps no more than ``max_step_px``
-    apart, built by ``n`` doublings (each averages the image with itself displaced by
-    a power-of-two fraction of the flow), one ``cv2.remap`` each, over the rows where
-    the blur reaches half a pixel.
+    pose). The box of length ``L = s |p - e|`` is sampled with ``2**n`` bilinear taps
+    no more than ``max_step_px`` apart, ``n = ceil(log2(L / max_step_px + 1))``, built
+    by ``n`` doublings (each averages the pixel with the previous doubling's value a
+    power-of-two number of tap spacings along its flow). Each pixel takes only the
+    doublings its own blur needs (none below half a pixel), so the cost follows the
+    blur in the frame (compiled: :func:`simroad.camera._blur_kernel.radial_blur`).
 
     Parameters
     ----------
@@ -167,26 +170,11 @@ def radial_motion_blur(
     ndarray, float32, (H, W, 3)
         ``lin``, blurred.
     """
-    h, w = lin.shape[:2]
-    u, v, du, dv, radius = _flow_grids(h, w, float(cx), float(foe_row))
-    length = cv2.multiply(scale, radius)
-    row_max = cv2.reduce(length, 1, cv2.REDUCE_MAX).ravel()
-    rows = np.flatnonzero(row_max >= 0.5)
-    if rows.size == 0:
-        return lin
-    r0, r1 = int(rows[0]), int(rows[-1]) + 1
-    longest = float(row_max[r0:r1].max())
-    levels = min(max(1, math.ceil(math.log2(longest / max_step_px + 1.0))), 8)
-    fx = cv2.multiply(scale[r0:r1], du[r0:r1])
-    fy = cv2.multiply(scale[r0:r1], dv[r0:r1])
-    band = lin[r0:r1]
-    span = float(2**levels - 1)  # taps k / (2^n - 1), k = 0 .. 2^n - 1: both ends of the box
-    for j in range(levels):
-        step = float(2**j) / span
-        mapx = cv2.scaleAdd(fx, step, u[r0:r1])
-        mapy = cv2.scaleAdd(fy, step, v[r0:r1])
-        moved = cv2.remap(lin, mapx, mapy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        cv2.addWeighted(band, 0.5, moved, 0.5, 0.0, dst=band)
+    if lin.dtype != np.float32 or lin.ndim != 3 or lin.shape[2] != 3 or not lin.flags.c_contiguous:
+        raise SimroadError(f"lin: expected a C-contiguous float32 (H, W, 3) array, got {lin.dtype} {lin.shape}.")
+    if scale.shape != lin.shape[:2]:
+        raise SimroadError(f"scale: expected shape {lin.shape[:2]} (the frame's), got {scale.shape}.")
+    radial_blur(lin, np.ascontiguousarray(scale, np.float32), float(cx), float(foe_row), float(max_step_px))
     return lin
 
 

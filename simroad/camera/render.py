@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from simroad.camera import _raster
+from simroad._validation import SimroadError
+from simroad.camera import _ground_blur, _raster
 from simroad.camera._painter import NEAR_M, MeshPainter
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
@@ -100,6 +101,9 @@ class Frame:
     faces : Mesh
         The faces that were drawn (of the scenery, then of the vehicles; faces out
         of view, turned away or below a pixel are left out).
+    motion_m : float
+        The camera's travel during the exposure by which the ground (not the faces)
+        is already motion-blurred; 0 for a still frame.
     """
 
     rgb: np.ndarray
@@ -109,6 +113,7 @@ class Frame:
     vehicles: list[VehicleBox] = field(default_factory=list)
     face_id: np.ndarray = field(default_factory=lambda: _NO_FACES)
     faces: Mesh = field(default_factory=Mesh.empty)
+    motion_m: float = 0.0
 
     def __post_init__(self) -> None:
         if self.face_id is _NO_FACES:
@@ -158,7 +163,13 @@ class CameraRenderer:
         self._r1 = int(rows_all[0]) if len(rows_all) else c.height
         self._mixed_sky = self._sky[self._r0 : self._r1]
         self._shift = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(self._r0)], [0.0, 0.0, 1.0]])
-        self._mip_bands = _mip_bands(camera, self._r0)
+        self._bands = _all_bands(_mip_bands(camera, self._r0), self._r0, c.height)
+        # Each row's forward ground distance (constant along a row) and the farthest
+        # column from the principal point: the ground's motion blur per row.
+        centre = min(max(int(round(camera.K[0, 2])), 0), c.width - 1)
+        with np.errstate(invalid="ignore"):
+            self._forward_m = np.where(camera.ground_valid[:, centre], camera.depth[:, centre], np.nan)
+        self._half_width_px = max(float(camera.K[0, 2]), c.width - float(camera.K[0, 2]))
         # Footprint of the visible ground in the ego frame, for the window request.
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
@@ -175,12 +186,27 @@ class CameraRenderer:
         f = self._footprint
         return np.column_stack([x + ch * f[:, 0] - sh * f[:, 1], y + sh * f[:, 0] + ch * f[:, 1]])
 
-    def render(self, pose: tuple[float, float, float], vehicles: Sequence[VehicleBox] = ()) -> Frame:
-        """Render the frame seen from ego ``pose = (x, y, heading)``."""
+    def render(
+        self, pose: tuple[float, float, float], vehicles: Sequence[VehicleBox] = (), *, motion_m: float = 0.0
+    ) -> Frame:
+        """Render the frame seen from ego ``pose = (x, y, heading)``.
+
+        ``motion_m`` is the distance the camera travels along its heading during the
+        exposure (the sensor's :meth:`~simroad.camera.sensor.Sensor.travel_m`): the
+        ground is motion-blurred by it, in the world's texture
+        (:mod:`simroad.camera._ground_blur`); 0 renders a still frame.
+        """
+        motion_m = float(motion_m)
+        if not (math.isfinite(motion_m) and motion_m >= 0.0):
+            raise SimroadError(f"motion_m: expected a distance >= 0 in metres, got {motion_m!r}.")
         cam = self.camera
         cam.set_pose(*pose)
         fp = self.footprint_world()
-        win = self.world.window(*fp.min(axis=0), *fp.max(axis=0))
+        # The window reaches two tiles ahead: driving forward re-assembles it seldom.
+        lead = 2.0 * self.world.tile_m
+        win = self.world.window(
+            *fp.min(axis=0), *fp.max(axis=0), lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2]))
+        )
         c = cam.config
         rgb = self._sky_rgb.copy()
         material = np.full((c.height, c.width), SKY, dtype=np.uint8)
@@ -191,9 +217,10 @@ class CameraRenderer:
             M = win.texel_from_world @ cam.H_world_from_image @ self._shift
             size = (c.width, c.height - r0)
             flags = cv2.WARP_INVERSE_MAP
-            rgba = cv2.warpPerspective(
-                win.rgba, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE
+            alpha = cv2.warpPerspective(
+                win.alpha, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE
             )
+            np.greater_equal(alpha, 128, out=road[r0:])  # exact GT from the full-resolution SDF
             cv2.warpPerspective(
                 win.material,
                 M,
@@ -202,25 +229,37 @@ class CameraRenderer:
                 flags=cv2.INTER_NEAREST | flags,
                 borderMode=cv2.BORDER_REPLICATE,
             )
-            ground = cv2.cvtColor(rgba, cv2.COLOR_RGBA2RGB)
-            np.greater_equal(rgba[..., 3], 128, out=road[r0:])  # exact GT from the full-resolution SDF
-            for level, a, b in self._mip_bands:  # far rows: colour from a coarser mip level
-                S = np.array(
-                    [
-                        [2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5],
-                        [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5],
-                        [0.0, 0.0, 1.0],
-                    ]
-                )
-                Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(a - r0)], [0.0, 0.0, 1.0]])
-                band = cv2.warpPerspective(
-                    win.level(level),
-                    Ma,
-                    (c.width, b - a),
-                    flags=cv2.INTER_LINEAR | flags,
-                    borderMode=cv2.BORDER_REPLICATE,
-                )
-                cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=ground[a - r0 : b - r0])
+            ground = np.empty((c.height - r0, c.width, 3), dtype=np.uint8)
+            blur = self._ground_blur(motion_m) if motion_m > 0.0 else None
+            start = blur[0] if blur is not None else c.height
+            heading = (math.cos(pose[2]), math.sin(pose[2]))
+            for level, a, b in self._bands:  # colour from the mip level that fits the rows
+                for lo, hi in ((a, min(b, start)), (max(a, start), b)):
+                    if hi <= lo:
+                        continue
+                    S = np.array(
+                        [
+                            [2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5],
+                            [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5],
+                            [0.0, 0.0, 1.0],
+                        ]
+                    )
+                    Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(lo - r0)], [0.0, 0.0, 1.0]])
+                    dst = ground[lo - r0 : hi - r0]
+                    # A mip level's texel is the pixel's footprint (that is how the level
+                    # is chosen): a smear under half of it is lost in the pixel.
+                    texels = motion_m * 2.0**-level / win.texel_m
+                    if lo >= start and blur is not None and (level == 0 or texels >= 0.5):
+                        self._warp_blurred(win, level, Ma, dst, motion_m, heading)
+                    else:
+                        band = cv2.warpPerspective(
+                            win.level(level),
+                            Ma,
+                            (c.width, hi - lo),
+                            flags=cv2.INTER_LINEAR | flags,
+                            borderMode=cv2.BORDER_REPLICATE,
+                        )
+                        cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
             fr = self._fade_rows
             if fr.stop > fr.start:
                 band = ground[fr.start - r0 : fr.stop - r0].astype(np.float32)
@@ -244,7 +283,53 @@ class CameraRenderer:
             road &= face_id < 0
         else:
             face_id = _NO_FACES
-        return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces)
+        return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces, motion_m=motion_m)
+
+    # ------------------------------------------------------- motion blur
+    def _ground_blur(self, motion_m: float) -> tuple[int, np.ndarray] | None:
+        """First row whose ground blurs by half a pixel or more, and each row's longest
+        ground blur in pixels; None when no row does."""
+        c = self.camera.config
+        length = _ground_blur.row_blur_px(
+            self._forward_m,
+            np.arange(c.height, dtype=np.float64),
+            horizon_row=float(self.camera.horizon_row),
+            half_width_px=self._half_width_px,
+            travel_m=motion_m,
+        )
+        start = _ground_blur.blur_start_row(length, self._r0)
+        return (start, length) if start < c.height else None
+
+    def _warp_blurred(
+        self,
+        win,
+        level: int,
+        Ma: np.ndarray,
+        dst: np.ndarray,
+        motion_m: float,
+        heading: tuple[float, float],
+    ) -> None:
+        """Warp the rows of ``dst`` from a motion-blurred crop of mip ``level``."""
+        src = win.level(level)
+        h, w = dst.shape[:2]
+        corners = np.array([[0.0, 0.0, 1.0], [w - 1.0, 0.0, 1.0], [0.0, h - 1.0, 1.0], [w - 1.0, h - 1.0, 1.0]])
+        t = corners @ Ma.T
+        t = t[:, :2] / t[:, 2:3]
+        scale = 2.0**-level / win.texel_m
+        shift = (-motion_m * heading[0] * scale, -motion_m * heading[1] * scale)
+        margin = abs(shift[0]) + abs(shift[1]) + 3.0
+        (tx0, ty0), (tx1, ty1) = t.min(axis=0).tolist(), t.max(axis=0).tolist()
+        sh, sw = src.shape[:2]
+        x0 = min(max(math.floor(tx0 - margin), 0), sw - 1)
+        x1 = min(max(math.ceil(tx1 + margin) + 1, x0 + 1), sw)
+        y0 = min(max(math.floor(ty0 - margin), 0), sh - 1)
+        y1 = min(max(math.ceil(ty1 + margin) + 1, y0 + 1), sh)
+        crop = _ground_blur.box_blur_texture(src[y0:y1, x0:x1], shift)
+        offset = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
+        band = cv2.warpPerspective(
+            crop, offset @ Ma, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+        )
+        cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
 
     # ------------------------------------------------------- things with height
     def _in_view(self, vehicles: Sequence[VehicleBox]) -> list[VehicleBox]:
@@ -291,6 +376,20 @@ class CameraRenderer:
         _raster.contact_shadows(
             rgb, self._ground, self._gx, self._gy, boxes, corners @ M + o, cam_v, AO_STRENGTH, _AO_INNER_M, _AO_REACH_M
         )
+
+
+def _all_bands(mip: list[tuple[int, int, int]], r0: int, height: int) -> list[tuple[int, int, int]]:
+    """Row bands ``(level, first_row, end_row)`` covering rows ``r0 .. height``: the mip
+    bands and, between them, level 0."""
+    out, v = [], r0
+    for level, a, b in sorted(mip, key=lambda band: band[1]):
+        if a > v:
+            out.append((0, v, a))
+        out.append((level, a, b))
+        v = b
+    if v < height:
+        out.append((0, v, height))
+    return out
 
 
 def _mip_bands(camera: PinholeCamera, r0: int, max_level: int = 3) -> list[tuple[int, int, int]]:

@@ -29,11 +29,13 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
+from simroad.camera._blur_kernel import decode, radial_blur_depth
 from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
     adc_response_lut,
     add_noise_dn,
+    inv_cos_bearing,
     jpeg_roundtrip,
     motion_blur_scale,
     radial_motion_blur,
@@ -221,6 +223,8 @@ def apply_sensor(
     depth: np.ndarray | None = None,
     noise: NoiseTile | None = None,
     white_balance: np.ndarray | None = None,
+    work: np.ndarray | None = None,
+    blur_mask: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """One frame through the sensor.
 
@@ -246,6 +250,13 @@ def apply_sensor(
     white_balance : ndarray (3,), optional
         The episode's white-balance gains (R, G, B), applied to the exposed signal;
         neutral when None.
+    work : ndarray, float32, (H, W, 3), optional
+        Scratch for the motion blur's linear frame (:class:`Sensor` keeps one per
+        episode; a fresh array when None). Its contents are overwritten.
+    blur_mask : ndarray, bool, (H, W), optional
+        The pixels the motion blur still has to smear: the renderer blurs the ground
+        in the world's texture (``Frame.motion_m``), so for its frames only the
+        things with height (``Frame.face_id >= 0``). None: every pixel.
 
     Returns
     -------
@@ -264,8 +275,24 @@ def apply_sensor(
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
             d = camera.depth if depth is None else depth
-            scale = motion_blur_scale(d, focal_px=fx, cx=cx, travel_m=travel)
-            frame = radial_motion_blur(srgb_to_linear(rgb), scale, cx=cx, foe_row=float(camera.horizon_row))
+            mask = _all_pixels(h, w) if blur_mask is None else np.asarray(blur_mask)
+            if mask.shape != (h, w) or mask.dtype != np.bool_:
+                raise SimroadError(
+                    f"blur_mask: expected a bool array of the frame's shape {(h, w)}, got {mask.dtype} {mask.shape}."
+                )
+            lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
+            decode(frame, _DECODE_LUT, lin)
+            radial_blur_depth(
+                lin,
+                np.ascontiguousarray(d, np.float32),
+                np.ascontiguousarray(mask),
+                inv_cos_bearing(w, fx, cx),
+                travel,
+                cx,
+                float(camera.horizon_row),
+                MOTION_BLUR_STEP_PX,
+            )
+            frame = lin
     full = float(2**params.adc_bits - 1)
     wb = None if white_balance is None else tuple(float(g) for g in white_balance)
     vig = _relative_gain(h, w, fx, cx, cy, params.vignetting_exponent if params.vignetting else None, wb)
@@ -299,6 +326,17 @@ def apply_sensor(
 
 
 _NO_NOISE = np.zeros((1, 1, 3), np.float32)
+#: Largest spacing of the motion blur's taps in pixels.
+MOTION_BLUR_STEP_PX = 1.5
+
+
+@functools.lru_cache(maxsize=8)
+def _all_pixels(h: int, w: int) -> np.ndarray:
+    mask = np.ones((h, w), dtype=bool)
+    mask.flags.writeable = False
+    return mask
+
+
 _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
 
 
@@ -346,6 +384,7 @@ class Sensor:
         self._rng: np.random.Generator | None = None
         self._settled = False
         self._noise: NoiseTile | None = None
+        self._work: np.ndarray | None = None
 
     def reset(self, rng: np.random.Generator) -> None:
         """Start an episode: exposure back to nominal, noise field drawn from ``rng``."""
@@ -356,13 +395,32 @@ class Sensor:
         self._settled = not self.params.auto_exposure
         p, c = self.params, self.camera.config
         self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
+        self._work = np.empty((c.height, c.width, 3), np.float32) if p.motion_blur else None
         self.white_balance: np.ndarray | None = None
         if p.white_balance_error > 0.0:  # drawn after the noise field: that stream is unchanged
             r, b = np.exp(rng.normal(0.0, p.white_balance_error, 2))
             self.white_balance = np.array([r, 1.0, b], dtype=np.float32)
 
-    def apply(self, rgb: np.ndarray, *, speed_m_s: float = 0.0, depth: np.ndarray | None = None) -> np.ndarray:
-        """Expose one frame (uint8 RGB, H x W x 3) and adapt the exposure for the next."""
+    def travel_m(self, speed_m_s: float) -> float:
+        """Distance (m) the camera covers during the next frame's exposure at
+        ``speed_m_s``: what the renderer blurs the ground by (0 without motion blur)."""
+        if not self.params.motion_blur:
+            return 0.0
+        # Before the first frame the exposure is not settled yet: the nominal one.
+        return abs(float(speed_m_s)) * self.params.exposure_time_s * 2.0**self.ev
+
+    def apply(
+        self,
+        rgb: np.ndarray,
+        *,
+        speed_m_s: float = 0.0,
+        depth: np.ndarray | None = None,
+        blur_mask: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Expose one frame (uint8 RGB, H x W x 3) and adapt the exposure for the next.
+
+        ``blur_mask`` (bool (H, W)) limits the motion blur to the pixels whose blur is
+        not yet in the frame (see :func:`apply_sensor`)."""
         if self._rng is None:
             raise SimroadError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
         if not self._settled:
@@ -387,6 +445,8 @@ class Sensor:
             depth=depth,
             noise=noise,
             white_balance=self.white_balance,
+            work=self._work,
+            blur_mask=blur_mask,
         )
         self.ev = auto_exposure_update(self.ev, measured, self.params)
         return out

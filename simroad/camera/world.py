@@ -18,8 +18,8 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import cv2
@@ -200,6 +200,8 @@ class Window:
     x0: float
     y0: float
     texel_m: float
+    #: Builds mip level ``k`` (>= 1) of this window, or None to downsample ``rgba``.
+    level_source: Callable[[int], np.ndarray] | None = field(default=None, repr=False, compare=False)
 
     @property
     def texel_from_world(self) -> np.ndarray:
@@ -210,11 +212,24 @@ class Window:
         """The colour (``rgba``) downsampled ``k`` times with ``cv2.pyrDown`` (cached).
 
         Level-``k`` texel ``x_k`` sits at level-0 texel ``(x_k + 0.5) * 2**k - 0.5``.
+        A window assembled from tiles takes each tile's own levels (built once per
+        tile, not per window); a bare window downsamples its ``rgba``.
         """
-        levels = self.__dict__.setdefault("_levels", [self.rgba])
-        while len(levels) <= k:
-            levels.append(cv2.pyrDown(levels[-1]))
+        levels = self.__dict__.setdefault("_levels", {0: self.rgba})
+        if k not in levels:
+            if self.level_source is not None:
+                levels[k] = self.level_source(k)
+            else:
+                levels[k] = cv2.pyrDown(self.level(k - 1))
         return levels[k]
+
+    @property
+    def alpha(self) -> np.ndarray:
+        """The road's signed-distance channel of ``rgba``, contiguous (cached)."""
+        a = self.__dict__.get("_alpha")
+        if a is None:
+            a = self.__dict__["_alpha"] = np.ascontiguousarray(self.rgba[..., 3])
+        return a
 
     def contains(self, xmin: float, ymin: float, xmax: float, ymax: float) -> bool:
         h, w = self.material.shape
@@ -278,6 +293,7 @@ class WorldRaster:
         self._tex = {codes[name]: t for name, t in tex.items()}
         self._wear_lut = wear_factor(np.arange(_WEAR_STEPS, dtype=np.float32) / _WEAR_RES, self.palette.asphalt_age)
         self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
+        self._tile_levels: OrderedDict[tuple[int, int, int], np.ndarray] = OrderedDict()
         self._windows: dict[str, Window] = {}
         #: What stands on the ground (trees, poles, buildings, ...): any object with
         #: ``meshes(xmin, ymin, xmax, ymax) -> Mesh``; ``None`` for a bare world.
@@ -399,30 +415,70 @@ class WorldRaster:
         return ((d_in - d_out) * t).astype(np.float32)
 
     # ---------------------------------------------------------------- window
-    def window(self, xmin: float, ymin: float, xmax: float, ymax: float, *, slot: str = "camera") -> Window:
+    def window(
+        self,
+        xmin: float,
+        ymin: float,
+        xmax: float,
+        ymax: float,
+        *,
+        slot: str = "camera",
+        lead: tuple[float, float] = (0.0, 0.0),
+    ) -> Window:
         """A contiguous window covering the world box (metres), reused while it fits.
 
         Each ``slot`` (the camera view, the bird's-eye view, ...) keeps its own window.
+        A new window has one tile of slack on every side and reaches ``lead`` (metres,
+        world x and y) farther in that direction: a camera moving forward passes the
+        lead before the window is assembled again.
         """
         w = self._windows.get(slot)
         if w is not None and w.contains(xmin, ymin, xmax, ymax):
             return w
         tm = self.tile_m
+        lx, ly = float(lead[0]), float(lead[1])
         # One tile of slack on every side, so small moves reuse the window.
-        i0, i1 = math.floor(xmin / tm) - 1, math.floor(xmax / tm) + 1
-        j0, j1 = math.floor(ymin / tm) - 1, math.floor(ymax / tm) + 1
-        T = self.tile_px
+        i0, i1 = math.floor((xmin + min(lx, 0.0)) / tm) - 1, math.floor((xmax + max(lx, 0.0)) / tm) + 1
+        j0, j1 = math.floor((ymin + min(ly, 0.0)) / tm) - 1, math.floor((ymax + max(ly, 0.0)) / tm) + 1
+        rgba, material = self._assemble(i0, i1, j0, j1, 0)
+
+        def level_source(k: int) -> np.ndarray:
+            return self._assemble(i0, i1, j0, j1, k)[0]
+
+        self._windows[slot] = Window(rgba, material, i0 * tm, j0 * tm, self.texel_m, level_source)
+        return self._windows[slot]
+
+    def _assemble(self, i0: int, i1: int, j0: int, j1: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """Colour (mip level ``k``) and, at level 0, material of tiles ``i0..i1`` x ``j0..j1``."""
+        T = self.tile_px >> k
         nx, ny = i1 - i0 + 1, j1 - j0 + 1
         rgba = np.empty((ny * T, nx * T, 4), dtype=np.uint8)
-        material = np.empty((ny * T, nx * T), dtype=np.uint8)
+        material = np.empty((ny * T, nx * T) if k == 0 else (0, 0), dtype=np.uint8)
         for j in range(j0, j1 + 1):
             for i in range(i0, i1 + 1):
-                trgba, tmat = self.tile(i, j)
                 r, c = (j - j0) * T, (i - i0) * T
+                if k == 0:
+                    trgba, tmat = self.tile(i, j)
+                    material[r : r + T, c : c + T] = tmat
+                else:
+                    trgba = self.tile_level(i, j, k)
                 rgba[r : r + T, c : c + T] = trgba
-                material[r : r + T, c : c + T] = tmat
-        self._windows[slot] = Window(rgba, material, i0 * tm, j0 * tm, self.texel_m)
-        return self._windows[slot]
+        return rgba, material
+
+    def tile_level(self, i: int, j: int, k: int) -> np.ndarray:
+        """Mip level ``k`` >= 1 of tile (``i``, ``j``)'s colour: ``cv2.pyrDown`` of level
+        ``k - 1`` (cached with the tile; at a tile's edge the filter reflects, a
+        difference of a fraction of a far, sub-pixel texel)."""
+        key = (i, j, k)
+        hit = self._tile_levels.get(key)
+        if hit is not None:
+            return hit
+        below = self.tile(i, j)[0] if k == 1 else self.tile_level(i, j, k - 1)
+        out = cv2.pyrDown(below)
+        self._tile_levels[key] = out
+        if len(self._tile_levels) > 3 * self.max_tiles:
+            self._tile_levels.popitem(last=False)
+        return out
 
     def bounds(self) -> tuple[float, float, float, float]:
         """World bounding box (xmin, ymin, xmax, ymax) of all lanes and shoulders."""

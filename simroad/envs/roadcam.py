@@ -284,7 +284,9 @@ class RoadCamEnv(gym.Env):
     def _observe(self, *, crashed: bool):
         if self.renderer is None:
             raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
-        frame = self.renderer.render(self._pose(), self._others())
+        speed = float(self.vehicle.speed)
+        motion = self.sensor.travel_m(speed) if self.sensor is not None else 0.0
+        frame = self.renderer.render(self._pose(), self._others(), motion_m=motion)
         rgb = frame.rgb
         masks: dict[str, np.ndarray] = {}
         if self.weather is not None:
@@ -302,10 +304,13 @@ class RoadCamEnv(gym.Env):
                 time_s=self._time,
                 face_id=getattr(frame, "face_id", None),  # the painter's Frame carries them
                 faces=getattr(frame, "faces", None),
+                motion_m=frame.motion_m,
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
         if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)
-            rgb = self.sensor.apply(rgb, speed_m_s=float(self.vehicle.speed), depth=frame.depth)
+            # The renderer blurred the ground by the exposure's travel; the sensor
+            # smears what stands on it.
+            rgb = self.sensor.apply(rgb, speed_m_s=speed, depth=frame.depth, blur_mask=frame.face_id >= 0)
         lat, herr, width, off = self._lane_state()
         on_road = off == 0.0
         centring = 1.0 / (1.0 + lat * lat)

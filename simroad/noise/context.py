@@ -80,6 +80,10 @@ class NoiseContext:
     faces : Mesh, optional
         The faces the renderer drew (:class:`simroad.camera.mesh.Mesh`); the shadow
         model shades them by their orientation to the sun.
+    motion_m : float
+        Distance (m, >= 0) the camera travels during the exposure; the renderer has
+        motion-blurred the ground by it (``Frame.motion_m``), and what a model draws
+        on the ground (the cast shadows) is smeared alike. 0: a still frame.
     """
 
     camera: PinholeCamera | None = None
@@ -92,6 +96,7 @@ class NoiseContext:
     time_s: float = 0.0
     face_id: np.ndarray | None = None
     faces: Mesh | None = None
+    motion_m: float = 0.0
 
     def __post_init__(self) -> None:
         if self.camera is not None and not isinstance(self.camera, PinholeCamera):
@@ -116,6 +121,7 @@ class NoiseContext:
         if t < 0:
             raise SimroadError(f"time_s: expected a time >= 0 s, got {t:g}.")
         object.__setattr__(self, "time_s", t)
+        object.__setattr__(self, "motion_m", check_in_range("motion_m", self.motion_m, 0.0, 100.0, unit="m"))
         _check_faces(self.face_id, self.faces)
 
 

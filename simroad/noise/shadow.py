@@ -176,13 +176,15 @@ def _clip_halfplane(poly: np.ndarray, signed: np.ndarray, near: float) -> np.nda
     return np.array(out)
 
 
-def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M) -> np.ndarray:
+def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M, motion_m: float = 0.0) -> np.ndarray:
     """Shadow coverage of every pixel, float32 (H, W) in [0, 1].
 
     Polygons are clipped to the ground half-plane at least ``near_m`` ahead of the
     camera, projected with ``camera.ground_to_image`` (its homography), filled with
     anti-aliased edges, and box-blurred by their penumbra in pixels (width
-    ``w·f/d`` across, ``w·f·h/d²`` along the view at the polygon's distance d).
+    ``w·f/d`` across, ``w·f·h/d²`` along the view at the polygon's distance d); the
+    camera's travel during the exposure ``motion_m`` widens the box along the view by
+    ``motion_m·f·h/d²`` (the ground's motion blur).
     """
     cfg = camera.config
     H, W = cfg.height, cfg.width
@@ -209,7 +211,10 @@ def rasterize_shadows(shadows: Shadows, camera, *, near_m: float = _NEAR_M) -> n
     centre = 0.5 * (b[:, :2] + b[:, 2:])
     dist = np.maximum(np.hypot(*(centre - c).T), 2.0)
     wx = shadows.penumbra_m[kept] * camera.K[0, 0] / dist
-    kx, ky = _kernel(wx), _kernel(wx * cfg.mount_height_m / dist)
+    # Along the view the ground also slides by the exposure's travel: its box adds
+    # to the penumbra's (the motion blur of the ground, as the renderer's).
+    along = (shadows.penumbra_m[kept] + motion_m) * camera.K[0, 0] / dist
+    kx, ky = _kernel(wx), _kernel(along * cfg.mount_height_m / dist)
     pts = np.round(np.clip(uv, -1e5, 1e5) * 16).astype(np.int32)
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     out = np.zeros((H, W), dtype=np.uint8)
@@ -290,7 +295,7 @@ class ShadowModel(NoiseModel):
         return sh.select((b[:, 2] >= lo[0]) & (b[:, 0] <= hi[0]) & (b[:, 3] >= lo[1]) & (b[:, 1] <= hi[1]))
 
     def prepare(self, state: FrameState) -> None:
-        cover = rasterize_shadows(self.world_shadows(state), state.camera)
+        cover = rasterize_shadows(self.world_shadows(state), state.camera, motion_m=state.ctx.motion_m)
         cover *= state.ground
         self._coverage = cover
         state.sun_visibility = 1.0 - cover

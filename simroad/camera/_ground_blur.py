@@ -1,0 +1,96 @@
+"""Motion blur of the ground, done in the world's texture.
+
+A camera that translates by ``travel`` metres along its heading during the exposure
+sees, at each pixel, the ground points ``G - t * travel * heading`` for ``t`` in [0, 1]
+(``G`` the point the pixel sees at the end of the exposure). On the flat ground that
+is a box of constant length along one direction of the world's texture, whatever the
+pixel: the renderer filters a small crop of the texture under the blurred rows with
+that box (one small kernel) and warps those rows from it. That is exact for the
+ground, costs one small filter however long the blur is in the image, and leaves the
+sensor only the things with height to blur (:mod:`simroad.camera._blur_kernel`). The
+blur runs on linear radiance (16 bit), as the light adds up on the sensor.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import cv2
+import numpy as np
+
+__all__ = ["blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
+
+
+@functools.cache
+def _tables() -> tuple[np.ndarray, np.ndarray]:
+    """sRGB code to linear radiance x 65535, and every 16-bit value back to its code."""
+    from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear  # noise imports the camera
+
+    codes = np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2)
+    to_linear = np.round(srgb_to_linear(codes)[0, :, 0] * 65535.0).astype(np.uint16).reshape(1, 256)
+    values = (np.arange(65536, dtype=np.float32) / 65535.0).reshape(256, 256, 1).repeat(3, axis=2)
+    return to_linear, linear_to_srgb(values)[..., 0].ravel()
+
+
+def row_blur_px(forward_m: np.ndarray, rows: np.ndarray, *, horizon_row: float, half_width_px: float, travel_m: float):
+    """Longest ground blur (pixels) in each image row: ``s * |p - e|`` at the row's far
+    corner, ``s = travel / (X - travel)`` for the row's forward ground distance ``X``
+    (constant along a row of a camera without roll); 0 where the row sees no ground."""
+    x = np.asarray(forward_m, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        s = np.where(np.isfinite(x), travel_m / np.maximum(x - travel_m, travel_m), 0.0)
+    return s * np.hypot(half_width_px, rows - horizon_row)
+
+
+def blur_start_row(length_px: np.ndarray, first_ground_row: int, threshold_px: float = 0.5) -> int:
+    """First row from which every ground row's blur reaches ``threshold_px`` (the rows
+    nearer the camera blur more); the frame's height when none does."""
+    h = len(length_px)
+    below = np.flatnonzero(length_px[first_ground_row:] < threshold_px)
+    return first_ground_row + int(below[-1]) + 1 if below.size else first_ground_row if h else h
+
+
+def segment_kernel(shift_texels: tuple[float, float], taps: int = 64) -> tuple[np.ndarray, tuple[int, int]]:
+    """The correlation kernel of the mean over ``g + t * shift``, ``t`` in [0, 1]:
+    ``taps`` evenly spaced bilinear samples, their weights summed on the texel grid.
+
+    The shift is the same for every texel, so the whole box is one small kernel.
+
+    Returns
+    -------
+    kernel : ndarray, float32, (kh, kw)
+        Sums to 1 (read-only, cached by the shift to 1/1000 texel).
+    anchor : (int, int)
+        Its (column, row) for ``cv2.filter2D`` (the kernel's zero offset).
+    """
+    return _segment_kernel(round(float(shift_texels[0]), 3), round(float(shift_texels[1]), 3), int(taps))
+
+
+@functools.lru_cache(maxsize=256)
+def _segment_kernel(sx: float, sy: float, taps: int) -> tuple[np.ndarray, tuple[int, int]]:
+    t = np.linspace(0.0, 1.0, taps)
+    px, py = t * sx, t * sy
+    x0, y0 = np.floor(px), np.floor(py)
+    ax, ay = px - x0, py - y0
+    ox, oy = int(x0.min()), int(y0.min())
+    kw, kh = int(x0.max()) - ox + 2, int(y0.max()) - oy + 2
+    ix, iy = (x0 - ox).astype(np.intp), (y0 - oy).astype(np.intp)
+    index = np.concatenate([iy * kw + ix, iy * kw + ix + 1, (iy + 1) * kw + ix, (iy + 1) * kw + ix + 1])
+    weight = np.concatenate([(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay])
+    kernel = (np.bincount(index, weight, minlength=kw * kh).reshape(kh, kw) / taps).astype(np.float32)
+    kernel.flags.writeable = False
+    return kernel, (-ox, -oy)
+
+
+def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.ndarray:
+    """Mean of the colour of ``rgba`` (uint8 (h, w, 4) sRGB + any 4th channel, bilinear
+    between texels) over the segment
+    ``g + t * shift``, ``t`` in [0, 1], per texel ``g``, on linear radiance (border
+    replicated): one ``cv2.filter2D`` with :func:`segment_kernel`. Returns uint8
+    (h, w, 4), the colour blurred (four channels: OpenCV warps them faster than three;
+    the 4th is not meaningful)."""
+    to_linear, to_srgb = _tables()
+    lin = cv2.LUT(rgba, to_linear)
+    kernel, anchor = segment_kernel(shift_texels)
+    out: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
+    return np.take(to_srgb, out)

@@ -1,0 +1,138 @@
+"""Motion blur: the ground blurred in the world's texture against the mean of still
+frames along the exposure, the box kernel by hand, and the sensor's share of the blur."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from highway_env.road.lane import LineType, StraightLane
+from highway_env.road.road import RoadNetwork
+
+from simroad._validation import SimroadError
+from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, SensorParams, WorldRaster
+from simroad.camera._blur_kernel import radial_blur, radial_blur_depth
+from simroad.camera._ground_blur import box_blur_texture, segment_kernel
+from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale
+from simroad.noise.radiometry import srgb_to_linear
+
+
+def _renderer(size=(320, 180), seed=3) -> CameraRenderer:
+    net = RoadNetwork()
+    line = (LineType.CONTINUOUS, LineType.STRIPED)
+    for k in range(2):
+        net.add_lane("a", "b", StraightLane([0, 4.0 * k], [400, 4.0 * k], width=4.0, line_types=line))
+    rng = np.random.default_rng(seed)
+    world = WorldRaster(net, rng)
+    return CameraRenderer(PinholeCamera(CameraConfig(width=size[0], height=size[1])), world, rng)
+
+
+@pytest.mark.parametrize("heading", [0.0, 0.6])
+def test_ground_blur_is_the_mean_of_still_frames_along_the_exposure(heading):
+    # Independent reference: the light a pixel gathers while the camera moves from
+    # pose - travel * heading to pose, as the mean of 48 still frames (linear light).
+    r = _renderer()
+    x, y, travel = 60.0, 2.0, 0.5
+    c, s = math.cos(heading), math.sin(heading)
+    blurred = r.render((x, y, heading), motion_m=travel)
+    acc = np.zeros(blurred.rgb.shape, np.float64)
+    ts = np.linspace(0.0, 1.0, 48)
+    for t in ts:
+        acc += srgb_to_linear(r.render((x - t * travel * c, y - t * travel * s, heading)).rgb)
+    ref = acc / len(ts)
+    still = srgb_to_linear(r.render((x, y, heading)).rgb)
+    got = srgb_to_linear(blurred.rgb)
+    rows = slice(r._r1 + 10, None)  # ground, not the faded horizon
+    err = np.abs(got - ref)[rows].mean()
+    moved = np.abs(still - ref)[rows].mean()
+    assert moved > 4 * err  # the blur is real ...
+    # ... and it is the exposure's, to the 8-bit rounding of the blurred texture
+    # (linear units, 1.0 = white; 3e-3 is under one code at mid-grey).
+    assert err < 3e-3
+    # Ground truth does not blur: the road mask is the still frame's.
+    assert np.array_equal(blurred.road_mask, r.render((x, y, heading)).road_mask)
+    assert blurred.motion_m == travel
+
+
+def test_zero_motion_is_the_still_frame_and_bad_motion_is_refused():
+    r = _renderer()
+    a, b = r.render((60.0, 2.0, 0.0)), r.render((60.0, 2.0, 0.0), motion_m=0.0)
+    assert np.array_equal(a.rgb, b.rgb)
+    for bad in (-0.1, float("nan"), float("inf")):
+        with pytest.raises(SimroadError, match="motion_m"):
+            r.render((60.0, 2.0, 0.0), motion_m=bad)
+
+
+def test_segment_kernel_by_hand():
+    # A shift of one texel along x: the bilinear weights of t in [0, 1] average to
+    # one half on each texel.
+    k, anchor = segment_kernel((1.0, 0.0))
+    np.testing.assert_allclose(k[:, :2], [[0.5, 0.5], [0.0, 0.0]], atol=1e-6)
+    assert anchor == (0, 0) and k.sum() == pytest.approx(1.0)
+    # Backwards and diagonal: sums to one, centroid half-way along the shift.
+    for shift in ((-1.6, 0.0), (0.7, -1.3)):
+        k, (ax, ay) = segment_kernel(shift)
+        rows, cols = np.mgrid[0 : k.shape[0], 0 : k.shape[1]]
+        assert k.sum() == pytest.approx(1.0, abs=1e-6)
+        assert (k * (cols - ax)).sum() == pytest.approx(shift[0] / 2, abs=1e-3)
+        assert (k * (rows - ay)).sum() == pytest.approx(shift[1] / 2, abs=1e-3)
+
+
+def test_texture_blur_averages_linear_light():
+    # A black/white edge (texels 0-3 black, 4-7 white) blurred over 2 texels: texel g
+    # averages x in [g, g + 2], bilinear between texels (a ramp on [3, 4]), in linear
+    # light: texel 2 sees black on [2, 3] and the ramp, 0.25; texel 3 the ramp and
+    # white, 0.75 (averaging the sRGB codes instead would give 0.52).
+    rgba = np.zeros((8, 8, 4), np.uint8)
+    rgba[:, 4:, :3] = 255
+    out = box_blur_texture(rgba, (2.0, 0.0))
+    lin = srgb_to_linear(np.ascontiguousarray(out[:, :, :3]))[4, :, 0]
+    assert lin[2] == pytest.approx(0.25, abs=0.01) and lin[3] == pytest.approx(0.75, abs=0.01)
+    assert lin[1] == pytest.approx(0.0, abs=1e-3) and lin[4] == pytest.approx(1.0, abs=1e-3)
+
+
+def test_depth_plan_matches_the_scale_plan():
+    cam = PinholeCamera(CameraConfig(width=64, height=48, hfov_deg=90.0, pitch_deg=0.0))
+    f, cx = float(cam.K[0, 0]), float(cam.K[0, 2])
+    img = np.random.default_rng(0).random((48, 64, 3), dtype=np.float32)
+    depth = cam.depth.astype(np.float32)
+    a, b = img.copy(), img.copy()
+    radial_blur(a, motion_blur_scale(depth, focal_px=f, cx=cx, travel_m=0.3), cx, float(cam.horizon_row), 1.5)
+    everywhere = np.ones((48, 64), bool)
+    radial_blur_depth(b, depth, everywhere, inv_cos_bearing(64, f, cx), 0.3, cx, float(cam.horizon_row), 1.5)
+    np.testing.assert_allclose(a, b, atol=1e-5)
+    assert not np.allclose(a, img)
+
+
+def test_sensor_blurs_only_the_masked_pixels():
+    cam = PinholeCamera(CameraConfig(width=64, height=48, hfov_deg=90.0, pitch_deg=0.0))
+    img = np.random.default_rng(1).integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    p = dataclasses.replace(SensorParams.none(), motion_blur=True, adc_bits=16)
+    none = np.zeros((48, 64), bool)
+    still, _ = apply_sensor(img, p, cam, np.random.default_rng(0), speed_m_s=0.0)
+    masked, _ = apply_sensor(img, p, cam, np.random.default_rng(0), speed_m_s=30.0, blur_mask=none)
+    assert np.array_equal(masked, still)  # nothing to blur: the still exposure
+    half = np.zeros((48, 64), bool)
+    half[:, 32:] = True
+    out, _ = apply_sensor(img, p, cam, np.random.default_rng(0), speed_m_s=30.0, blur_mask=half)
+    assert np.array_equal(out[:, :32], still[:, :32]) and not np.array_equal(out[30:, 32:], still[30:, 32:])
+    with pytest.raises(SimroadError, match="blur_mask"):
+        apply_sensor(img, p, cam, np.random.default_rng(0), speed_m_s=30.0, blur_mask=np.ones((4, 4), bool))
+
+
+def test_cast_shadow_edges_smear_with_the_exposure_travel():
+    from simroad.noise._occluders import N_VERT, Shadows
+    from simroad.noise.shadow import rasterize_shadows
+
+    cam = PinholeCamera(CameraConfig(width=320, height=180))
+    cam.set_pose(0.0, 0.0, 0.0)
+    square = np.array([[8.0, -2.0], [12.0, -2.0], [12.0, 2.0], [8.0, 2.0]])
+    poly = np.vstack([square, np.repeat(square[-1:], N_VERT - 4, axis=0)])
+    sh = Shadows(poly[None], np.array([0.02]), np.array([[8.0, -2.0, 12.0, 2.0]]), np.array([-1]))
+    still = rasterize_shadows(sh, cam)
+    moving = rasterize_shadows(sh, cam, motion_m=0.5)
+    soft = lambda c: int(((c > 0.02) & (c < 0.98)).sum())  # noqa: E731
+    assert soft(moving) > 2 * soft(still)  # the near and far edges smear along the view
+    assert moving.sum() == pytest.approx(still.sum(), rel=0.05)  # the light is moved, not lost
