@@ -33,7 +33,7 @@ def main() -> None:
             it["k"] += 1
             if sensor:  # as the env does: the ground blurred in the texture, the rest by the sensor
                 fr = env.renderer.render(pose, others, motion_m=env.sensor.travel_m(speed))
-                env.sensor.apply(fr.rgb, speed_m_s=speed, depth=fr.depth, blur_mask=fr.face_id >= 0)
+                env.sensor.apply(fr.rgb, speed_m_s=speed, depth=fr.depth, face_id=fr.face_id)
             else:
                 fr = env.renderer.render(pose, others)
 

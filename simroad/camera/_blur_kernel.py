@@ -9,7 +9,10 @@ own blur length needs (``n = ceil(log2(L / max_step + 1))`` for ``L = s |p - e|`
 none below half a pixel), with its own tap spacing ``L / (2**n - 1)``, so the cost
 follows the blur actually in the frame rather than its longest streak.
 
-A level runs in place, one row at a time: the flow points away from the horizon row,
+The plan lists the pixels that blur, row by row (``row_ptr[y] .. row_ptr[y + 1]``
+index ``xs``), each with its doublings ``ns`` and the displacement of one tap spacing
+(``fxs``, ``fys``): the levels visit only them. A level runs in place, one row at a
+time: the flow points away from the horizon row,
 so a row below it reads only rows at or below itself and a row above it only rows at
 or above itself; visiting rows outwards from the horizon and writing each row after
 it is computed, every read sees the previous level. ``parallel=False``: the
@@ -54,82 +57,134 @@ def _plan_pixel(s, du, dv, max_step):
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def _plan(scale, cx, foe_row, max_step, fx, fy, levels, row_levels):
-    """Per pixel: the displacement of one tap spacing (``fx``, ``fy``) and the number of
-    levels; per row, the most levels of any of its pixels. Returns the frame's most."""
-    h, w = scale.shape
-    most = 0
-    for y in range(h):
-        dv = np.float32(y - foe_row)
-        row_most = 0
-        for x in range(w):
-            n, fx[y, x], fy[y, x] = _plan_pixel(scale[y, x], np.float32(x - cx), dv, max_step)
-            levels[y, x] = n
-            row_most = max(row_most, n)
-        row_levels[y] = row_most
-        most = max(most, row_most)
-    return most
+def _empty_plan(h, w):
+    cap = h * w
+    return (
+        np.empty(cap, np.int32),
+        np.empty(cap, np.uint8),
+        np.empty(cap, np.float32),
+        np.empty(cap, np.float32),
+        np.zeros(h + 1, np.int64),
+    )
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def _plan_depth(depth, mask, inv_cos, travel, cx, foe_row, max_step, fx, fy, levels, row_levels):
+def _plan(scale, cx, foe_row, max_step):
+    """The pixels to blur from the relative expansion ``s`` per pixel; returns the plan
+    ``(xs, ns, fxs, fys, row_ptr, most)`` (see the module docstring)."""
+    h, w = scale.shape
+    xs, ns, fxs, fys, row_ptr = _empty_plan(h, w)
+    k, most = 0, 0
+    for y in range(h):
+        dv = np.float32(y - foe_row)
+        for x in range(w):
+            n, fx, fy = _plan_pixel(scale[y, x], np.float32(x - cx), dv, max_step)
+            if n > 0:
+                xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
+                k += 1
+                most = max(most, n)
+        row_ptr[y + 1] = k
+    return xs, ns, fxs, fys, row_ptr, most
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, inline="always")
+def _stays_on_face(face_id, fid, x, y, lx, ly):
+    """Whether every bilinear tap of pixel (``x``, ``y``)'s flow segment (to
+    ``(x + lx, y + ly)``) reads face ``fid`` only: the four texels around its end, and
+    the segment's quarter points for anything standing in between. A face is convex
+    on the screen, so the taps between read it too."""
+    h, w = face_id.shape
+    wm, hm = np.float32(w - 1), np.float32(h - 1)
+    zero = np.float32(0.0)
+    # The end's four texels (clamped like the taps; int() of a non-negative float is
+    # its floor).
+    x0 = int(min(max(np.float32(x) + lx, zero), wm))
+    y0 = int(min(max(np.float32(y) + ly, zero), hm))
+    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+    if face_id[y0, x0] != fid or face_id[y1, x1] != fid or face_id[y0, x1] != fid or face_id[y1, x0] != fid:
+        return False
+    for k in range(1, 4):  # anything standing in between
+        t = np.float32(0.25 * k)
+        qx = int(min(max(np.float32(x) + t * lx + np.float32(0.5), zero), wm))
+        qy = int(min(max(np.float32(y) + t * ly + np.float32(0.5), zero), hm))
+        if face_id[qy, qx] != fid:
+            return False
+    return True
+
+
+@njit(cache=True, nogil=True, fastmath=_FM)
+def _plan_depth(depth, face_id, flat_faces, inv_cos, travel, cx, foe_row, max_step):
     """:func:`_plan` with ``s = travel / max(X - travel, travel)`` from the depth map
     (``X = depth / inv_cos``, :func:`simroad.camera._sensor_ops.motion_blur_scale`),
-    for the pixels of ``mask`` only."""
+    for the pixels with ``face_id >= 0`` only. With ``flat_faces``, a pixel whose
+    flow segment stays on its own face (:func:`_stays_on_face`) is left as it is: a
+    face is flat-coloured, so the mean along the segment is the pixel's own colour."""
     h, w = depth.shape
-    most = 0
+    xs, ns, fxs, fys, row_ptr = _empty_plan(h, w)
+    k, most = 0, 0
     for y in range(h):
         dv = np.float32(y - foe_row)
-        row_most = 0
         for x in range(w):
-            n = 0
-            if mask[y, x]:
-                forward = depth[y, x] / inv_cos[x]
-                s = travel / max(forward - travel, travel)
-                n, fx[y, x], fy[y, x] = _plan_pixel(s, np.float32(x - cx), dv, max_step)
-            levels[y, x] = n
-            row_most = max(row_most, n)
-        row_levels[y] = row_most
-        most = max(most, row_most)
-    return most
+            fid = face_id[y, x]
+            if fid < 0:
+                continue
+            du = np.float32(x - cx)
+            forward = depth[y, x] / inv_cos[x]
+            s = travel / max(forward - travel, travel)
+            n, fx, fy = _plan_pixel(s, du, dv, max_step)
+            if n > 0 and flat_faces and _stays_on_face(face_id, fid, x, y, s * du, s * dv):
+                n = 0
+            if n > 0:
+                xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
+                k += 1
+                most = max(most, n)
+        row_ptr[y + 1] = k
+    return xs, ns, fxs, fys, row_ptr, most
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def _level_row(img, y, j, fx, fy, levels, tmp):
-    """Level ``j`` of row ``y`` into ``tmp`` (then copied into the image)."""
+def _level_row(img, y, j, xs, ns, fxs, fys, k0, k1, tmp):
+    """Level ``j`` of the planned pixels ``k0 .. k1`` of row ``y``, into ``tmp`` and then
+    the image (the row's reads all see the previous level)."""
     h, w = img.shape[0], img.shape[1]
     step = np.float32(1 << j)
     wm, hm = np.float32(w - 1), np.float32(h - 1)
-    for x in range(w):
-        if levels[y, x] <= j:
+    yf = np.float32(y)
+    for k in range(k0, k1):
+        if ns[k] <= j:
             continue
-        qx = min(max(np.float32(x) + step * fx[y, x], np.float32(0.0)), wm)
-        qy = min(max(np.float32(y) + step * fy[y, x], np.float32(0.0)), hm)
+        x = xs[k]
+        qx = min(max(np.float32(x) + step * fxs[k], np.float32(0.0)), wm)
+        qy = min(max(yf + step * fys[k], np.float32(0.0)), hm)
         x0, y0 = int(qx), int(qy)
         ax, ay = qx - np.float32(x0), qy - np.float32(y0)
         x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+        i = k - k0
         for c in range(3):
             top = img[y0, x0, c] + ax * (img[y0, x1, c] - img[y0, x0, c])
             bot = img[y1, x0, c] + ax * (img[y1, x1, c] - img[y1, x0, c])
-            tmp[x, c] = np.float32(0.5) * (img[y, x, c] + top + ay * (bot - top))
-    for x in range(w):  # only the pixels of this level change
-        if levels[y, x] > j:
+            tmp[i, c] = np.float32(0.5) * (img[y, x, c] + top + ay * (bot - top))
+    for k in range(k0, k1):
+        if ns[k] > j:
+            x, i = xs[k], k - k0
             for c in range(3):
-                img[y, x, c] = tmp[x, c]
+                img[y, x, c] = tmp[i, c]
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def _run_levels(img, fx, fy, levels, row_levels, most, foe_row):
-    h, w = levels.shape
+def _run_levels(img, plan, foe_row):
+    xs, ns, fxs, fys, row_ptr, most = plan
+    h, w = img.shape[0], img.shape[1]
     tmp = np.empty((w, 3), np.float32)
     first_below = min(max(int(math.floor(foe_row)) + 1, 0), h)
     for j in range(most):
         for y in range(first_below, h):  # below the horizon: outwards = downwards
-            if row_levels[y] > j:
-                _level_row(img, y, j, fx, fy, levels, tmp)
+            if row_ptr[y + 1] > row_ptr[y]:
+                _level_row(img, y, j, xs, ns, fxs, fys, row_ptr[y], row_ptr[y + 1], tmp)
         for y in range(first_below - 1, -1, -1):  # above it: upwards
-            if row_levels[y] > j:
-                _level_row(img, y, j, fx, fy, levels, tmp)
+            if row_ptr[y + 1] > row_ptr[y]:
+                _level_row(img, y, j, xs, ns, fxs, fys, row_ptr[y], row_ptr[y + 1], tmp)
+    return most
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
@@ -140,38 +195,24 @@ def radial_blur(img, scale, cx, foe_row, max_step):
     foe_row)`` the focus of expansion in pixels, ``max_step`` the largest tap spacing in
     pixels. Returns the number of levels of the longest blur (0: nothing moved).
     """
-    h, w = scale.shape
-    fx = np.empty((h, w), np.float32)  # read only where levels > 0
-    fy = np.empty((h, w), np.float32)
-    levels = np.empty((h, w), np.uint8)
-    row_levels = np.empty(h, np.int64)
-    most = _plan(scale, np.float32(cx), np.float32(foe_row), np.float32(max_step), fx, fy, levels, row_levels)
-    _run_levels(img, fx, fy, levels, row_levels, most, foe_row)
-    return most
+    plan = _plan(scale, np.float32(cx), np.float32(foe_row), np.float32(max_step))
+    return _run_levels(img, plan, foe_row)
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def radial_blur_depth(img, depth, mask, inv_cos, travel, cx, foe_row, max_step):
-    """:func:`radial_blur` of the pixels of ``mask`` (bool (H, W)), the expansion from
-    the depth map (float32 (H, W), ``inf`` for the sky), the columns' ``1 / cos`` of
-    their bearing (float32 (W,)) and the travel during the exposure (m)."""
-    h, w = depth.shape
-    fx = np.empty((h, w), np.float32)  # read only where levels > 0
-    fy = np.empty((h, w), np.float32)
-    levels = np.empty((h, w), np.uint8)
-    row_levels = np.empty(h, np.int64)
-    most = _plan_depth(
+def radial_blur_depth(img, depth, face_id, flat_faces, inv_cos, travel, cx, foe_row, max_step):
+    """:func:`radial_blur` of the pixels with ``face_id >= 0`` (int32 (H, W)), the
+    expansion from the depth map (float32 (H, W), ``inf`` for the sky), the columns'
+    ``1 / cos`` of their bearing (float32 (W,)) and the travel during the exposure (m);
+    ``flat_faces`` skips the pixels whose blur stays on their own flat face."""
+    plan = _plan_depth(
         depth,
-        mask,
+        face_id,
+        flat_faces,
         inv_cos,
         np.float32(travel),
         np.float32(cx),
         np.float32(foe_row),
         np.float32(max_step),
-        fx,
-        fy,
-        levels,
-        row_levels,
     )
-    _run_levels(img, fx, fy, levels, row_levels, most, foe_row)
-    return most
+    return _run_levels(img, plan, foe_row)

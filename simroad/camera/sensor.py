@@ -224,7 +224,7 @@ def apply_sensor(
     noise: NoiseTile | None = None,
     white_balance: np.ndarray | None = None,
     work: np.ndarray | None = None,
-    blur_mask: np.ndarray | None = None,
+    face_id: np.ndarray | None = None,
 ) -> tuple[np.ndarray, float]:
     """One frame through the sensor.
 
@@ -253,10 +253,11 @@ def apply_sensor(
     work : ndarray, float32, (H, W, 3), optional
         Scratch for the motion blur's linear frame (:class:`Sensor` keeps one per
         episode; a fresh array when None). Its contents are overwritten.
-    blur_mask : ndarray, bool, (H, W), optional
-        The pixels the motion blur still has to smear: the renderer blurs the ground
-        in the world's texture (``Frame.motion_m``), so for its frames only the
-        things with height (``Frame.face_id >= 0``). None: every pixel.
+    face_id : ndarray, int32, (H, W), optional
+        The renderer's ``Frame.face_id``: it has blurred the ground (-1) in the
+        world's texture (``Frame.motion_m``), so the sensor smears only the faces
+        (>= 0), and on a face only the pixels whose blur reaches another face or the
+        ground (faces are flat-coloured). None: every pixel is blurred.
 
     Returns
     -------
@@ -275,17 +276,21 @@ def apply_sensor(
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
             d = camera.depth if depth is None else depth
-            mask = _all_pixels(h, w) if blur_mask is None else np.asarray(blur_mask)
-            if mask.shape != (h, w) or mask.dtype != np.bool_:
-                raise SimroadError(
-                    f"blur_mask: expected a bool array of the frame's shape {(h, w)}, got {mask.dtype} {mask.shape}."
-                )
+            if face_id is None:
+                ids, flat = _all_pixels(h, w), False
+            else:
+                ids, flat = np.asarray(face_id), True
+                if ids.shape != (h, w) or ids.dtype != np.int32:
+                    raise SimroadError(
+                        f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
+                    )
             lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
             decode(frame, _DECODE_LUT, lin)
             radial_blur_depth(
                 lin,
                 np.ascontiguousarray(d, np.float32),
-                np.ascontiguousarray(mask),
+                np.ascontiguousarray(ids),
+                flat,
                 inv_cos_bearing(w, fx, cx),
                 travel,
                 cx,
@@ -332,9 +337,10 @@ MOTION_BLUR_STEP_PX = 1.5
 
 @functools.lru_cache(maxsize=8)
 def _all_pixels(h: int, w: int) -> np.ndarray:
-    mask = np.ones((h, w), dtype=bool)
-    mask.flags.writeable = False
-    return mask
+    """Every pixel an object of its own face: the whole frame is blurred."""
+    ids = np.arange(h * w, dtype=np.int32).reshape(h, w)
+    ids.flags.writeable = False
+    return ids
 
 
 _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
@@ -415,12 +421,12 @@ class Sensor:
         *,
         speed_m_s: float = 0.0,
         depth: np.ndarray | None = None,
-        blur_mask: np.ndarray | None = None,
+        face_id: np.ndarray | None = None,
     ) -> np.ndarray:
         """Expose one frame (uint8 RGB, H x W x 3) and adapt the exposure for the next.
 
-        ``blur_mask`` (bool (H, W)) limits the motion blur to the pixels whose blur is
-        not yet in the frame (see :func:`apply_sensor`)."""
+        ``face_id`` (the renderer's ``Frame.face_id``) leaves the ground's motion blur
+        to the renderer (see :func:`apply_sensor`)."""
         if self._rng is None:
             raise SimroadError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
         if not self._settled:
@@ -446,7 +452,7 @@ class Sensor:
             noise=noise,
             white_balance=self.white_balance,
             work=self._work,
-            blur_mask=blur_mask,
+            face_id=face_id,
         )
         self.ev = auto_exposure_update(self.ev, measured, self.params)
         return out

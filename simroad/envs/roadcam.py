@@ -310,7 +310,7 @@ class RoadCamEnv(gym.Env):
         if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)
             # The renderer blurred the ground by the exposure's travel; the sensor
             # smears what stands on it.
-            rgb = self.sensor.apply(rgb, speed_m_s=speed, depth=frame.depth, blur_mask=frame.face_id >= 0)
+            rgb = self.sensor.apply(rgb, speed_m_s=speed, depth=frame.depth, face_id=frame.face_id)
         lat, herr, width, off = self._lane_state()
         on_road = off == 0.0
         centring = 1.0 / (1.0 + lat * lat)
