@@ -26,7 +26,10 @@ def fast_exp(x: np.ndarray) -> np.ndarray:
     Below about -87 the result is a float32 denormal, which costs the CPU a
     hundred times more per element; ``exp(-80)`` ≈ 2e-35 is zero for any pixel.
     """
-    return cv2.exp(cv2.max(np.asarray(x, dtype=np.float32), -80.0))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    x = np.asarray(x, dtype=np.float32)
+    if x.size == 0:  # no ground in view: OpenCV refuses empty arrays
+        return x.copy()
+    return cv2.exp(cv2.max(x, -80.0))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
 
 
 def rgb_scalar(value: np.ndarray | float) -> tuple[float, float, float, float]:
@@ -38,7 +41,10 @@ def rgb_scalar(value: np.ndarray | float) -> tuple[float, float, float, float]:
 
 def gray3(weight: np.ndarray) -> np.ndarray:
     """A float32 (H, W) map repeated over three channels, (H, W, 3)."""
-    return cv2.cvtColor(np.ascontiguousarray(weight, dtype=np.float32), cv2.COLOR_GRAY2RGB)
+    weight = np.ascontiguousarray(weight, dtype=np.float32)
+    if weight.size == 0:  # no ground in view: OpenCV refuses empty arrays
+        return np.empty((*weight.shape, 3), np.float32)
+    return cv2.cvtColor(weight, cv2.COLOR_GRAY2RGB)
 
 
 def material_weights(state: FrameState, table: dict[int, float], default_ground: float) -> np.ndarray:

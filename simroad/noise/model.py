@@ -37,6 +37,8 @@ from simroad.noise.radiometry import as_uint8, change_mask, linear_to_srgb, srgb
 __all__ = ["STAGES", "Limit", "NoiseModel", "NoiseResult", "Params", "run_models"]
 
 STAGES = ("material", "illumination", "reflection", "atmosphere", "particles", "optics")
+#: The stages that act on the ground's surface only.
+_SURFACE_STAGES = ("material", "reflection")
 
 NoiseResult = tuple[np.ndarray, dict[str, np.ndarray]]
 """``(noisy, masks)``: the frame (input's shape and dtype) and noise name -> bool (H, W)."""
@@ -258,6 +260,10 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
     for m in active:
         m.prepare(state)
     plan = [(stage, m) for stage in STAGES for m in active if stage in m.stages]
+    if state.ground_rows.stop <= state.ground_rows.start:
+        # No ground in view (a wall or a truck fills the frame): the stages that act
+        # on the road surface have nothing to act on.
+        plan = [(stage, m) for stage, m in plan if stage not in _SURFACE_STAGES]
     enc_prev = as_uint8(image)
     for k, (stage, m) in enumerate(plan):
         getattr(m, stage)(state)

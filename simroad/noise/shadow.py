@@ -310,8 +310,9 @@ class ShadowModel(NoiseModel):
         clear_sky(state, self.sun, t_sun * float(np.mean(self.params.sun_sky_ratio_rgb)) / CLEAR_SKY_RATIO)
         k = shadow_factor(self.params.sun_sky_ratio_rgb, self.sun[1], t_sun)
         c = cover[r]
-        factor = cv2.merge([1.0 - c * np.float32(1.0 - kc) for kc in k])
-        state.lin[r] *= factor
+        if c.size:  # no ground in view (a wall or a truck fills the frame): nothing is shadowed
+            factor = cv2.merge([1.0 - c * np.float32(1.0 - kc) for kc in k])
+            state.lin[r] *= factor
         ctx = state.ctx
         if ctx.face_id is not None and ctx.faces is not None and len(ctx.faces):
             fid = ctx.face_id

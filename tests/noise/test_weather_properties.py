@@ -104,3 +104,17 @@ def test_apply_before_reset_is_a_clear_error(name, scene):
     model = MODELS[name].from_severity(0.5)
     with pytest.raises(SimroadError, match="reset"):
         model.apply(scene.frame.rgb, scene.ctx())
+
+
+@pytest.mark.parametrize("noise", ["shadow", "glare", "rain", "snow", "fog", "rain+glare"])
+def test_a_frame_without_ground_in_view(noise):
+    # A wall or a truck filling the view: no pixel sees the ground (seen in a sweep:
+    # highway, shadow 0.8, seed 102). Every model runs, the frame keeps its shape.
+    from simroad.camera.world import BUILDING
+    from simroad.noise import apply_noise
+
+    img = np.full((48, 64, 3), 120, np.uint8)
+    depth = np.full((48, 64), 3.0, np.float32)
+    material = np.full((48, 64), BUILDING, np.uint8)
+    out, masks = apply_noise(img, noise, severity=0.8, rng=0, depth=depth, material=material)
+    assert out.shape == img.shape and out.dtype == np.uint8 and all(m.shape == (48, 64) for m in masks.values())
