@@ -17,6 +17,7 @@ from pathlib import Path
 from simroad._validation import SimroadError, check_choice, check_output_dir
 from simroad.cli.env_options import env_options
 from simroad.cli.types import MAX_SEED, given
+from simroad.detector.registry import parse_detector_options
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
@@ -88,10 +89,16 @@ def cmd_episode(args: argparse.Namespace) -> int:
     requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
     if args.driver == "oracle" and parse_filters(args.filters):
         refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")
+    if args.driver == "oracle" and (args.detector != "paper" or args.detector_option):
+        raise SimroadError(
+            "--detector/--detector-option: not used with --driver oracle (it drives on the ground-truth mask); "
+            "drop them or use --driver detector."
+        )
     spec = EpisodeSpec(
         scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
         driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
-        route_m=args.route_m, env_options=env_options(args),
+        route_m=args.route_m, env_options=env_options(args), detector=args.detector,
+        detector_options=parse_detector_options(args.detector_option),
     )  # fmt: skip
     record = run_episode(spec, video=args.video)
     if args.json:

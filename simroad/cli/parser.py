@@ -71,6 +71,25 @@ def _add_frames(sub: Any) -> None:
     p.set_defaults(func=commands.cmd_frames)
 
 
+def _add_detector_flags(p: Any) -> None:
+    """``--detector SPEC`` and ``--detector-option key=value`` (see simroad.detector.registry)."""
+    p.add_argument(
+        "--detector",
+        default="paper",
+        metavar="SPEC",
+        help="the road detector: paper (the shipped one), a registered name, package.module:attr or "
+        "path/to/file.py:attr, a class or factory returning an object with predict(image) -> bool mask "
+        "(default: paper)",
+    )
+    p.add_argument(
+        "--detector-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="keyword option for the detector's class or factory, the value a Python literal or a string; repeatable",
+    )
+
+
 def _add_episode(sub: Any) -> None:
     p = sub.add_parser(
         "episode",
@@ -92,6 +111,7 @@ def _add_episode(sub: Any) -> None:
         default=d["driver"],
         help=f"{names(DRIVER_NAMES)} (default: {d['driver']})",
     )
+    _add_detector_flags(p)
     p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument(
         "--steps",
