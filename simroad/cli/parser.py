@@ -146,7 +146,7 @@ def _add_ablate(sub: Any) -> None:
     p = sub.add_parser(
         "ablate",
         help="run an ablation sweep (resumable) and write its report",
-        description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
+        description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
     )
     d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
     p.add_argument("--config", type=T.input_file(), help="a TOML file with the same names as keys (flags override it)")
@@ -169,6 +169,21 @@ def _add_ablate(sub: Any) -> None:
         "--filters",
         type=_FILTER_SETS,
         help=f"comma-separated filter sets: none, all, or names joined by '+' ({names(FILTER_NAMES)}) (default: {d['filters']})",
+    )
+    p.add_argument(
+        "--detectors",
+        help="comma-separated detector specs: paper, registered names, package.module:attr or "
+        f"path/to/file.py:attr (default: {d['detectors']}); their options go in the TOML file's "
+        '[detector-options."SPEC"] tables, or --detector-option',
+    )
+    p.add_argument(
+        "--detector-option",
+        dest="detector_option",
+        action="append",
+        default=[],
+        metavar="SPEC@KEY=VALUE",
+        help="keyword option for one of --detectors (SPEC@KEY=VALUE; KEY=VALUE when one detector besides "
+        "paper is given); repeatable",
     )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
