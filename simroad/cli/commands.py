@@ -208,6 +208,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         images=args.images or None,
         masks=args.masks or None,
         model=args.model,
+        detector=args.detector,
+        detector_options=parse_detector_options(args.detector_option),
     )
     if args.json:
         print(json.dumps({"detector": rows, "filter_masks": frows}))

@@ -293,6 +293,7 @@ def _add_detector(sub: Any) -> None:
         help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG",
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    _add_detector_flags(p)
     p.set_defaults(func=commands.cmd_evaluate)
 
     d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}

@@ -102,3 +102,15 @@ def test_cli_ablate_runs_every_detector_and_groups_by_it(detector_file, tmp_path
     bad = subprocess.run(cmd[:-2] + ["--detector-option", "fraction=0.3", "--detectors", f"a.py:X,{detector_file}:Lower"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)  # fmt: skip
     assert bad.returncode == 2 and "SPEC@KEY=VALUE" in bad.stderr
+
+
+def test_cli_evaluate_detector_scores_a_file_detector(detector_file):
+    cmd = [sys.executable, "-m", "simroad", "evaluate-detector", "--scenario", "highway", "--seeds", "1",
+           "--frames", "2", "--filters", "none,shadow", "--json",
+           "--detector", f"{detector_file}:Lower", "--detector-option", "fraction=0.3"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr
+    rows = json.loads(proc.stdout)["detector"]
+    assert [r["filters"] for r in rows] == ["none", "shadow"] and all(r["frames"] == 2 for r in rows)
+    clash = subprocess.run(cmd + ["--model", str(detector_file)], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert clash.returncode == 2 and "model" in clash.stderr and "Traceback" not in clash.stderr
