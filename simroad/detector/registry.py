@@ -55,6 +55,7 @@ __all__ = [
     "FilteredDetector",
     "available_detectors",
     "check_mask",
+    "clear_detector_cache",
     "describe",
     "load_detector",
     "parse_detector_options",
@@ -95,7 +96,7 @@ def register(name: str, factory: Callable[..., Any]) -> None:
     if not callable(factory):
         raise SimroadError(f"factory: expected a class or a callable returning a detector, got {factory!r}.")
     _REGISTRY[name] = factory
-    load_detector.cache_clear()
+    clear_detector_cache()
 
 
 def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
@@ -253,7 +254,9 @@ def _load(spec: str, frozen: tuple, filters: tuple[str, ...], variant: str) -> A
     return FilteredDetector(detector, filters, filter_variant=variant) if filters else detector
 
 
-load_detector.cache_clear = _load.cache_clear  # type: ignore[attr-defined]
+def clear_detector_cache() -> None:
+    """Forget the detectors :func:`load_detector` built (they are built anew on request)."""
+    _load.cache_clear()
 
 
 def _thaw(value: Any) -> Any:

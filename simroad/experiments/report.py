@@ -233,11 +233,11 @@ def _safety_figure(records: list[dict], path: Path) -> None:
     clear = [r for r in ok if r["noise"] == "clear"]
     dets = _detectors(ok)
 
-    def pick(d: str, f: str) -> Callable[[dict], bool]:
+    def chooser(d: str, f: str) -> Callable[[dict], bool]:
         return lambda r: r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f
 
     lines = [
-        (f"{'detector' if len(dets) == 1 else d}, {label}", pick(d, f))
+        (f"{'detector' if len(dets) == 1 else d}, {label}", chooser(d, f))
         for d in dets
         for f, label in (("none", "no filters"), (_ALL, "all filters"))
     ] + [("oracle", lambda r: r["driver"] == "oracle")]

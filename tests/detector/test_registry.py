@@ -14,6 +14,7 @@ from simroad.detector.registry import (
     FilteredDetector,
     available_detectors,
     check_mask,
+    clear_detector_cache,
     describe,
     load_detector,
     parse_detector_options,
@@ -44,9 +45,9 @@ class Half:
 
 @pytest.fixture(autouse=True)
 def _fresh_cache():
-    load_detector.cache_clear()
+    clear_detector_cache()
     yield
-    load_detector.cache_clear()
+    clear_detector_cache()
     registry._REGISTRY.pop("half_registered", None)
 
 
