@@ -13,10 +13,12 @@ import json
 import signal
 import sys
 from pathlib import Path
+from typing import Any
 
 from simroad._validation import SimroadError, check_choice, check_output_dir
 from simroad.cli.env_options import env_options
 from simroad.cli.types import MAX_SEED, given
+from simroad.detector.registry import parse_detector_options
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
@@ -46,7 +48,7 @@ __all__ = [
 ]
 
 #: ``simroad ablate`` flags that set AblationGrid fields (None: not given).
-ABLATE_GRID_FLAGS = ("scenarios", "noises", "severities", "filters", "seeds", "seed_start", "steps")
+ABLATE_GRID_FLAGS = ("scenarios", "noises", "severities", "filters", "detectors", "seeds", "seed_start", "steps")
 #: Keys of ``simroad ablate`` that configure the run, not the grid.
 RUN_KEYS = ("workers", "backend", "ray_address", "out")
 
@@ -88,10 +90,16 @@ def cmd_episode(args: argparse.Namespace) -> int:
     requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
     if args.driver == "oracle" and parse_filters(args.filters):
         refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")
+    if args.driver == "oracle" and (args.detector != "paper" or args.detector_option):
+        raise SimroadError(
+            "--detector/--detector-option: not used with --driver oracle (it drives on the ground-truth mask); "
+            "drop them or use --driver detector."
+        )
     spec = EpisodeSpec(
         scenario=args.scenario, noise=args.noise, severity=args.severity, filters=args.filters,
         driver=args.driver, seed=args.seed, steps=args.steps, traffic=not args.no_traffic,
-        route_m=args.route_m, env_options=env_options(args),
+        route_m=args.route_m, env_options=env_options(args), detector=args.detector,
+        detector_options=parse_detector_options(args.detector_option),
     )  # fmt: skip
     record = run_episode(spec, video=args.video)
     if args.json:
@@ -106,6 +114,24 @@ def cmd_episode(args: argparse.Namespace) -> int:
     return 1 if failures else 0
 
 
+def _detector_option_flags(items: list[str], detectors: Any, options: dict) -> dict:
+    """``--detector-option SPEC@KEY=VALUE`` (or ``KEY=VALUE`` with one detector besides
+    paper) merged over the TOML file's options."""
+    specs = [d.strip() for d in (detectors.split(",") if isinstance(detectors, str) else detectors)]
+    own = [d for d in specs if d != "paper"]
+    for item in items:
+        spec, at, pair = item.rpartition("@")
+        if not at:
+            if len(own) != 1:
+                raise SimroadError(
+                    f"--detector-option: {item!r} does not say which detector it is for; write SPEC@KEY=VALUE "
+                    f"with SPEC one of {specs}."
+                )
+            spec = own[0]
+        options.setdefault(spec, {}).update(parse_detector_options([pair]))
+    return options
+
+
 def cmd_ablate(args: argparse.Namespace) -> int:
     """``simroad ablate``: run (or resume) a sweep from flags and/or ``--config``, then its report."""
     opts = load_grid_file(args.config) if args.config else {}
@@ -113,6 +139,10 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         value = getattr(args, key)
         if value is not None:
             opts[key] = value
+    if args.detector_option:
+        opts["detector_options"] = _detector_option_flags(
+            args.detector_option, opts.get("detectors", ("paper",)), dict(opts.get("detector_options", {}))
+        )
     run = {k: opts.pop(k) for k in RUN_KEYS if k in opts}
     if "out" not in run:
         print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
@@ -178,6 +208,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         images=args.images or None,
         masks=args.masks or None,
         model=args.model,
+        detector=args.detector,
+        detector_options=parse_detector_options(args.detector_option),
     )
     if args.json:
         print(json.dumps({"detector": rows, "filter_masks": frows}))

@@ -71,6 +71,25 @@ def _add_frames(sub: Any) -> None:
     p.set_defaults(func=commands.cmd_frames)
 
 
+def _add_detector_flags(p: Any) -> None:
+    """``--detector SPEC`` and ``--detector-option key=value`` (see simroad.detector.registry)."""
+    p.add_argument(
+        "--detector",
+        default="paper",
+        metavar="SPEC",
+        help="the road detector: paper (the shipped one), a registered name, package.module:attr or "
+        "path/to/file.py:attr, a class or factory returning an object with predict(image) -> bool mask "
+        "(default: paper)",
+    )
+    p.add_argument(
+        "--detector-option",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="keyword option for the detector's class or factory, the value a Python literal or a string; repeatable",
+    )
+
+
 def _add_episode(sub: Any) -> None:
     p = sub.add_parser(
         "episode",
@@ -92,6 +111,7 @@ def _add_episode(sub: Any) -> None:
         default=d["driver"],
         help=f"{names(DRIVER_NAMES)} (default: {d['driver']})",
     )
+    _add_detector_flags(p)
     p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
     p.add_argument(
         "--steps",
@@ -126,7 +146,7 @@ def _add_ablate(sub: Any) -> None:
     p = sub.add_parser(
         "ablate",
         help="run an ablation sweep (resumable) and write its report",
-        description="Run scenarios x noises x severities x filter sets x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
+        description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
     )
     d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
     p.add_argument("--config", type=T.input_file(), help="a TOML file with the same names as keys (flags override it)")
@@ -149,6 +169,21 @@ def _add_ablate(sub: Any) -> None:
         "--filters",
         type=_FILTER_SETS,
         help=f"comma-separated filter sets: none, all, or names joined by '+' ({names(FILTER_NAMES)}) (default: {d['filters']})",
+    )
+    p.add_argument(
+        "--detectors",
+        help="comma-separated detector specs: paper, registered names, package.module:attr or "
+        f"path/to/file.py:attr (default: {d['detectors']}); their options go in the TOML file's "
+        '[detector-options."SPEC"] tables, or --detector-option',
+    )
+    p.add_argument(
+        "--detector-option",
+        dest="detector_option",
+        action="append",
+        default=[],
+        metavar="SPEC@KEY=VALUE",
+        help="keyword option for one of --detectors (SPEC@KEY=VALUE; KEY=VALUE when one detector besides "
+        "paper is given); repeatable",
     )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
@@ -258,6 +293,7 @@ def _add_detector(sub: Any) -> None:
         help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG",
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    _add_detector_flags(p)
     p.set_defaults(func=commands.cmd_evaluate)
 
     d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}

@@ -23,7 +23,7 @@ from simroad._validation import SimroadError, check_choice
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_keeping import MaskLaneKeeper
-from simroad.detector import RoadDetector
+from simroad.detector.registry import check_mask, load_detector
 from simroad.envs.scenarios import SCENARIOS, get_scenario
 
 __all__ = ["DRIVER_NAMES", "CallableDriver", "MaskDriver", "make_driver"]
@@ -80,11 +80,18 @@ class MaskDriver:
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:
-        """Forget the controller's memory of the previous episode."""
+        """Forget the controller's memory of the previous episode (and the detector's,
+        if it has a ``reset()``)."""
         self.controller.reset()
+        reset = getattr(self.detector, "reset", None)
+        if callable(reset):
+            reset()
 
     def __call__(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
-        mask = info["road_mask"] if self.detector is None else self.detector.predict(obs)
+        if self.detector is None:
+            mask = info["road_mask"]
+        else:
+            mask = check_mask(self.detector.predict(obs), obs.shape[:2], self.detector)
         self.last_mask = mask
         return self.controller.act(mask, float(info["speed_m_s"]))
 
@@ -125,8 +132,9 @@ def make_driver(
     A convenience over :class:`MaskDriver`: it takes the camera and the scenario
     (``ControllerConfig.for_scenario``, unless ``control`` is given) from ``env``, an
     unwrapped :class:`~simroad.envs.RoadCamEnv` created with ``longitudinal=True``.
-    For ``"detector"``, ``detector`` defaults to the shipped pretrained model with the
-    given ``filters``.
+    For ``"detector"``, ``detector`` (any object with ``predict``, see
+    :mod:`simroad.detector.registry`) defaults to the shipped ``paper`` model with
+    the given ``filters``.
     """
     if callable(driver) and not isinstance(driver, str):
         return CallableDriver(driver)
@@ -145,5 +153,9 @@ def make_driver(
     if driver == "oracle":
         return MaskDriver(env.camera, control)
     if detector is None:
-        detector = RoadDetector.pretrained(filters=tuple(filters))
+        detector = load_detector("paper", filters=tuple(filters))
+    elif not callable(getattr(detector, "predict", None)):
+        raise SimroadError(
+            f"detector: expected an object with predict(uint8 (H, W, 3)) -> bool (H, W), got {type(detector).__name__}."
+        )
     return MaskDriver(env.camera, control, detector=detector)

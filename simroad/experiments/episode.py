@@ -9,6 +9,12 @@ scenario, noise           the world and the weather (noise canonical, e.g. ``rai
 severity                  weather severity in [0, 1]
 filters                   ``none`` or the detector's filters joined by ``+``
 driver                    ``detector``, ``oracle`` or ``custom``
+detector                  what drove: the detector's ``name`` (``paper`` for the
+                          shipped one, else its own or its spec), ``""`` for the
+                          oracle and custom drivers
+detector_version          its ``version`` (``""`` when it has none)
+detector_spec             the spec it was built from (``EpisodeSpec.detector``;
+                          ``""`` for the oracle and custom drivers)
 seed, steps               episode seed; steps actually driven
 fnr, fpr                  pooled over all evaluated pixels of the episode (KITTI style)
 fnr_frame_mean, ...       ``fpr_frame_mean``: means of the per-frame rates
@@ -47,6 +53,7 @@ from simroad._validation import (
     check_output_file,
 )
 from simroad.control.drivers import DRIVER_NAMES, make_driver
+from simroad.detector.registry import describe, load_detector, parse_detector_options
 from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
 from simroad.experiments.video import EpisodeVideo
@@ -57,7 +64,8 @@ from simroad.metrics.safety import SafetyScore
 __all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "parse_filters", "run_episode"]
 
 RECORD_KEYS = (
-    "scenario", "noise", "severity", "filters", "driver", "seed", "steps",
+    "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
+    "detector_spec", "seed", "steps",
     "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
@@ -71,7 +79,10 @@ class EpisodeSpec:
     """What one episode runs. ``route_m`` defaults to :func:`default_route_m`: the
     scenario's route (:class:`~simroad.envs.ScenarioSpec`: one racetrack lap, else
     ``route_m``), shortened to what the step budget can cover. The episode's time
-    limit is ``steps`` policy periods of the scenario (at least one, at most 1000 s)."""
+    limit is ``steps`` policy periods of the scenario (at least one, at most 1000 s).
+    ``detector`` is a detector spec (:func:`simroad.detector.registry.load_detector`:
+    ``paper``, a registered name, ``module:attr`` or ``file.py:attr``) built with
+    ``detector_options``; the ``filters`` run in front of it."""
 
     scenario: str = "racetrack"
     noise: str = "clear"
@@ -83,6 +94,8 @@ class EpisodeSpec:
     traffic: bool = True
     route_m: float | None = None
     env_options: dict = field(default_factory=dict)
+    detector: str = "paper"
+    detector_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_int_in_range("steps", self.steps, 1, 1_000_000)
@@ -97,6 +110,12 @@ class EpisodeSpec:
             check_choice("driver", self.driver, DRIVER_NAMES)
         if self.route_m is not None:
             check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
+        if not isinstance(self.detector, str) or not self.detector.strip():
+            raise SimroadError(
+                f"detector: expected a detector spec ('paper', a registered name, 'module:attr' or "
+                f"'path/to/file.py:attr'), got {self.detector!r}."
+            )
+        object.__setattr__(self, "detector_options", parse_detector_options(self.detector_options))
         self._check_env()
 
     def _check_env(self) -> None:
@@ -147,9 +166,10 @@ def run_episode(
     driver : callable, optional
         A custom ``obs -> action`` (or ``obs -> (action, mask)``) replacing
         ``spec.driver``.
-    detector : RoadDetector, optional
-        The detector of the ``detector`` driver (default: the shipped model with
-        ``spec.filters``).
+    detector : object with ``predict(image) -> bool mask``, optional
+        The detector of the ``detector`` driver, as it is (``spec.filters`` are not
+        put in front of it); default: ``spec.detector`` built with
+        ``spec.detector_options`` and ``spec.filters`` (once per process).
     video : path, optional
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
     """
@@ -162,7 +182,10 @@ def run_episode(
     duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)
     env = RoadCamEnv(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, longitudinal=True,
                      traffic=spec.traffic, duration_s=duration_s, **spec.env_options)  # fmt: skip
-    pilot = make_driver(driver if driver is not None else spec.driver, env, filters=spec.filters, detector=detector)
+    kind = driver if driver is not None else spec.driver
+    if kind == "detector" and detector is None:
+        detector = load_detector(spec.detector, spec.detector_options, filters=spec.filters)
+    pilot = make_driver(kind, env, filters=spec.filters, detector=detector)
     obs, info = env.reset(seed=spec.seed)
     pilot.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
@@ -199,6 +222,8 @@ def run_episode(
         "severity": spec.severity if env.config.noise != "clear" else 0.0,
         "filters": format_filters(spec.filters),
         "driver": spec.driver if driver is None else "custom",
+        **_detector_record(pilot),
+        "detector_spec": spec.detector if kind == "detector" and driver is None else "",
         "seed": spec.seed,
         "steps": steps,
     }
@@ -210,6 +235,14 @@ def run_episode(
     record["step_ms_median"] = float(np.median(step_ms)) if step_ms else 0.0
     record["wall_s"] = time.perf_counter() - t_start
     return {k: record[k] for k in RECORD_KEYS}
+
+
+def _detector_record(pilot: Any) -> dict[str, str]:
+    det = getattr(pilot, "detector", None)
+    if det is None:
+        return {"detector": "", "detector_version": ""}
+    d = describe(det)
+    return {"detector": d["name"], "detector_version": d["version"]}
 
 
 def scenario_route_m(env: RoadCamEnv) -> float:

@@ -9,7 +9,7 @@ qualitative figure.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.detector.registry import check_mask
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.training import HELD_OUT_SEEDS
@@ -100,6 +101,15 @@ def _pretrained(filters: tuple[str, ...]) -> Any:
     return RoadDetector.pretrained(filters=filters)
 
 
+def _spec_factory(spec: str, options: Mapping[str, Any] | None) -> DetectorFactory:
+    """Build the detector ``spec`` names with ``options``, checked now (a bad spec
+    fails before any frame is rendered), each filter setting in front."""
+    from simroad.detector.registry import load_detector
+
+    load_detector(spec, options)
+    return lambda filters: load_detector(spec, options, filters=filters)
+
+
 def model_factory(path: str | os.PathLike) -> DetectorFactory:
     """A detector factory for the model file at ``path`` (read once, checked now):
     its own filter setting returns the loaded detector, another setting a fresh copy
@@ -151,7 +161,7 @@ def evaluate_frames(
         det = factory(tuple(filters))
         score = MaskScore()
         for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
-            score.update(det.predict(img), gt, valid=valid)
+            score.update(check_mask(det.predict(img), img.shape[:2], det), gt, valid=valid)
         s = score.summary()
         rows.append(
             {
@@ -181,8 +191,10 @@ def evaluate_detector(
     images: str | os.PathLike | None = None,
     masks: str | os.PathLike | None = None,
     model: str | os.PathLike | None = None,
+    detector: str = "paper",
+    detector_options: Mapping[str, Any] | None = None,
 ) -> tuple[list[dict], list[dict]]:
-    """Score the detector on held-out rendered frames, or on a folder of images and masks.
+    """Score a detector on held-out rendered frames, or on a folder of images and masks.
 
     Parameters
     ----------
@@ -199,6 +211,10 @@ def evaluate_detector(
     model : path, optional
         A detector ``.npz`` (e.g. from ``simroad train-detector``) instead of the
         shipped model.
+    detector, detector_options
+        Any detector by spec (:func:`simroad.detector.registry.load_detector`), built
+        with its options and each setting's filters in front; ``paper`` (default) is
+        the shipped model. Not with ``model``.
 
     Returns
     -------
@@ -214,7 +230,11 @@ def evaluate_detector(
     else:
         check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
         check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
-    factory = model_factory(model) if model is not None else None
+    if model is not None and detector != "paper":
+        raise SimroadError(
+            f"model: a model file is for the paper's detector; got it with detector={detector!r}. Give one of them."
+        )
+    factory = model_factory(model) if model is not None else _spec_factory(detector, detector_options)
     if images is not None and masks is not None:
         frames = load_image_folder(images, masks)
     else:

@@ -8,7 +8,7 @@ import json
 import os
 import tomllib
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -21,6 +21,7 @@ from simroad._validation import (
     check_in_range,
     check_int_in_range,
 )
+from simroad.detector.registry import parse_detector_options
 from simroad.envs.config import SCENARIO_NAMES
 from simroad.experiments.episode import EpisodeSpec, format_filters, parse_filters
 
@@ -71,10 +72,13 @@ def _numbers(name: str, value: Any) -> list[float]:
 
 @dataclass(frozen=True)
 class AblationGrid:
-    """scenarios x noises x severities x filter sets x seeds, plus one oracle row per
-    scenario x noise x severity x seed.
+    """detectors x filter sets x scenarios x noises x severities x seeds, plus one
+    oracle row per scenario x noise x severity x seed.
 
     ``clear`` weather has no severity: it runs once, recorded with severity 0.
+    ``detectors`` are detector specs (``paper``, a registered name, ``module:attr``,
+    ``path/to/file.py:attr``; :mod:`simroad.detector.registry`), each built with its
+    ``detector_options[spec]`` (keyword options) and the filter set in front.
     """
 
     scenarios: tuple[str, ...] = ("racetrack", "winding")
@@ -86,19 +90,28 @@ class AblationGrid:
     steps: int = 150
     traffic: bool = True
     oracle: bool = True
+    detectors: tuple[str, ...] = ("paper",)
+    detector_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
         noises = tuple(_canonical_noise(n) for n in _split("noises", self.noises))
         sev = tuple(check_in_range("severities", v, 0.0, 1.0) for v in _numbers("severities", self.severities))
         filt = tuple(format_filters(parse_filters(f)) for f in _split("filters", self.filters))
-        for name, vals in (("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt)):
+        dets = tuple(str(d).strip() for d in _split("detectors", self.detectors))
+        if any(not d for d in dets):
+            raise SimroadError(f"detectors: expected detector specs such as 'paper', got {list(self.detectors)!r}.")
+        for name, vals in (
+            ("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt), ("detectors", dets)
+        ):  # fmt: skip
             if len(set(vals)) != len(vals):
                 raise SimroadError(f"{name}: duplicate values in {list(vals)}.")
         object.__setattr__(self, "scenarios", scen)
         object.__setattr__(self, "noises", noises)
         object.__setattr__(self, "severities", sev)
         object.__setattr__(self, "filters", filt)
+        object.__setattr__(self, "detectors", dets)
+        object.__setattr__(self, "detector_options", _detector_options(self.detector_options, dets))
         check_int_in_range("seeds", self.seeds, 1, 100_000)
         check_int_in_range("seed_start", self.seed_start, 0, 2**31 - 1 - self.seeds)
         check_int_in_range("steps", self.steps, 1, 1_000_000)
@@ -123,8 +136,12 @@ class AblationGrid:
                         )
                         if self.oracle:
                             out.append(base(driver="oracle"))
-                        for f in self.filters:
-                            out.append(base(driver="detector", filters=parse_filters(f)))
+                        for d in self.detectors:
+                            opts = self.detector_options.get(d, {})
+                            for f in self.filters:
+                                out.append(
+                                    base(driver="detector", filters=parse_filters(f), detector=d, detector_options=opts)
+                                )
         return out
 
     def fingerprint(self) -> str:
@@ -143,7 +160,32 @@ def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
 
     filters = get("filters")
     filters = filters if isinstance(filters, str) else format_filters(filters)
-    return f"{get('scenario')}|{get('noise')}|{float(get('severity')):g}|{filters}|{get('driver')}|{int(get('seed'))}"
+    if isinstance(spec_or_record, Mapping):
+        detector = spec_or_record.get("detector_spec", "")
+    else:
+        detector = spec_or_record.detector if spec_or_record.driver == "detector" else ""
+    return (
+        f"{get('scenario')}|{get('noise')}|{float(get('severity')):g}|{filters}|{get('driver')}|{detector}"
+        f"|{int(get('seed'))}"
+    )
+
+
+def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dict]:
+    """``{spec: {key: value}}`` for specs of ``detectors`` only."""
+    if not isinstance(options, Mapping):
+        raise SimroadError(
+            f"detector_options: expected a table of detector spec -> options, e.g. "
+            f"{{'mine.py:Detector': {{'threshold': 0.5}}}}, got {type(options).__name__}."
+        )
+    out = {}
+    for spec, opts in options.items():
+        if spec not in detectors:
+            raise SimroadError(
+                f"detector_options: {spec!r} is not one of the grid's detectors {list(detectors)}; "
+                "give options only for a detector the grid runs."
+            )
+        out[spec] = parse_detector_options(opts)
+    return out
 
 
 def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:

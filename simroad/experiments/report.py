@@ -45,7 +45,21 @@ METRICS = {
     "lateral_rmse_m": "lateral_rmse_m",
     "driving_score": "driving_score",
 }
-_GROUP = ("scenario", "noise", "severity", "filters", "driver")
+_GROUP = ("scenario", "noise", "severity", "filters", "driver", "detector")
+_ALL = "shadow+rain_snow+light"
+
+
+def _detectors(records: list[dict]) -> list[str]:
+    """The detectors that drove (by name), in a fixed order, ``paper`` first."""
+    return sorted(
+        {r.get("detector", "") for r in records if r["driver"] == "detector"}, key=lambda d: (d != "paper", d)
+    )
+
+
+def _setting(detector: str, filters: str, many: bool) -> str:
+    """A perception setting's label: its filter set, and its detector when a sweep has several."""
+    short = "all" if filters == _ALL else filters
+    return f"{detector}: {short}" if many else short
 
 
 def _mean_ci(values: list[float]) -> tuple[float, float]:
@@ -98,7 +112,7 @@ def _fmt(mean: float, half: float, pct: bool) -> str:
 
 
 def _write_md(rows: list[dict], path: Path) -> None:
-    cols = ["scenario", "noise", "severity", "filters", "driver", "episodes"]
+    cols = ["scenario", "noise", "severity", "detector", "filters", "driver", "episodes"]
     head = cols + ["FNR %", "FPR %", "IoU", "off-road %", "collision %", "lat. RMSE m", "driving score"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
@@ -138,25 +152,30 @@ def headline(records: list[dict]) -> str:
     cells = sorted({(r["noise"], r["severity"]) for r in ok}, key=lambda c: (c[0] != "clear", c[0], c[1]))
     filters = sorted(
         {r["filters"] for r in ok if r["driver"] == "detector"},
-        key=lambda f: (f != "none", f == "shadow+rain_snow+light", f),
+        key=lambda f: (f != "none", f == _ALL, f),
     )
-    short = {"shadow+rain_snow+light": "all"}
-    head = ["noise", "severity"] + [f"FNR / FPR % ({short.get(f, f)})" for f in filters]
-    head += ["off-road % (none / all / oracle)", "driving score (none / all / oracle)"]
+    dets = _detectors(ok)
+    many = len(dets) > 1
+    settings = [(d, f) for d in dets for f in filters]
+    head = ["noise", "severity"] + [f"FNR / FPR % ({_setting(d, f, many)})" for d, f in settings]
+    pairs = [(d, f) for d in dets for f in ("none", _ALL)]
+    names = " / ".join([_setting(d, f, many) for d, f in pairs] + ["oracle"])
+    head += [f"off-road % ({names})", f"driving score ({names})"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for noise, sev in cells:
         rs = [r for r in ok if r["noise"] == noise and r["severity"] == sev]
         row = [noise, f"{sev:g}"]
-        for f in filters:
-            det = [r for r in rs if r["driver"] == "detector" and r["filters"] == f]
+        for d, f in settings:
+            det = [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
             row.append(
                 f"{100 * np.mean([r['fnr'] for r in det]):.1f} / {100 * np.mean([r['fpr'] for r in det]):.1f}"
                 if det
                 else "–"
             )
-        groups = [[r for r in rs if r["driver"] == "detector" and r["filters"] == "none"],
-                  [r for r in rs if r["driver"] == "detector" and r["filters"] == "shadow+rain_snow+light"],
-                  [r for r in rs if r["driver"] == "oracle"]]  # fmt: skip
+        groups = [
+            [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
+            for d, f in pairs
+        ] + [[r for r in rs if r["driver"] == "oracle"]]
         row.append(" / ".join(f"{100 * np.mean([r['offroad_fraction'] for r in g]):.1f}" if g else "–" for g in groups))
         row.append(" / ".join(f"{np.mean([r['driving_score'] for r in g]):.2f}" if g else "–" for g in groups))
         lines.append("| " + " | ".join(row) + " |")
@@ -171,16 +190,28 @@ def _error_rates_figure(records: list[dict], path: Path) -> None:
 
     det = [r for r in records if r["driver"] == "detector" and not r.get("error")]
     noises = sorted({r["noise"] for r in det}, key=lambda n: (n != "clear", n))
-    filters = sorted({r["filters"] for r in det}, key=lambda f: (f != "none", f == "all", f))
+    filters = sorted({r["filters"] for r in det}, key=lambda f: (f != "none", f == _ALL, f))
+    dets = _detectors(det)
+    settings = [(d, f) for d in dets for f in filters]
     fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=False)
-    width = 0.8 / max(1, len(filters))
+    width = 0.8 / max(1, len(settings))
     for ax, metric in zip(axes, ("fnr", "fpr")):
-        for j, f in enumerate(filters):
-            stats = [_mean_ci([100 * r[metric] for r in det if r["noise"] == n and r["filters"] == f]) for n in noises]
+        for j, (d, f) in enumerate(settings):
+            stats = [
+                _mean_ci(
+                    [
+                        100 * r[metric]
+                        for r in det
+                        if r["noise"] == n and r["filters"] == f and r.get("detector", "") == d
+                    ]
+                )
+                for n in noises
+            ]
             means = [m for m, _ in stats]
             errs = [h if math.isfinite(h) else 0.0 for _, h in stats]
-            xs = np.arange(len(noises)) + (j - (len(filters) - 1) / 2) * width
-            ax.bar(xs, means, width, yerr=errs, capsize=3, label=f"filters: {f}")
+            xs = np.arange(len(noises)) + (j - (len(settings) - 1) / 2) * width
+            label = f"filters: {f}" if len(dets) == 1 else f"{d}, filters: {f}"
+            ax.bar(xs, means, width, yerr=errs, capsize=3, label=label)
         ax.set_xticks(np.arange(len(noises)), noises, rotation=20)
         ax.set_ylabel(f"{metric.upper()} (%)")
         ax.set_title(f"{metric.upper()} per noise (mean, 95 % CI)")
@@ -200,9 +231,16 @@ def _safety_figure(records: list[dict], path: Path) -> None:
     ok = [r for r in records if not r.get("error")]
     noises = sorted({r["noise"] for r in ok if r["noise"] != "clear"}) or ["clear"]
     clear = [r for r in ok if r["noise"] == "clear"]
-    lines = [("detector, no filters", lambda r: r["driver"] == "detector" and r["filters"] == "none"),
-             ("detector, all filters", lambda r: r["driver"] == "detector" and r["filters"] == "shadow+rain_snow+light"),
-             ("oracle", lambda r: r["driver"] == "oracle")]  # fmt: skip
+    dets = _detectors(ok)
+
+    def chooser(d: str, f: str) -> Callable[[dict], bool]:
+        return lambda r: r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f
+
+    lines = [
+        (f"{'detector' if len(dets) == 1 else d}, {label}", chooser(d, f))
+        for d in dets
+        for f, label in (("none", "no filters"), (_ALL, "all filters"))
+    ] + [("oracle", lambda r: r["driver"] == "oracle")]
     fig, axes = plt.subplots(2, len(noises), figsize=(3.2 * len(noises), 5.5), squeeze=False)
     for col, noise in enumerate(noises):
         rs = [r for r in ok if r["noise"] == noise] + clear

@@ -36,10 +36,12 @@ REJECTED_NAME = "results.rejected.jsonl"
 #: Expected type of each key of a row, by kind: ``text`` a string; ``count`` an int
 #: >= 0 (not a bool); ``severity`` a number in [0, 1]; ``number`` an int or float
 #: (NaN for a failed episode); ``flag`` a bool or a number (NaN for a failed episode);
-#: ``number|null`` a number or null; ``text|null`` a string or null (optional key).
+#: ``number|null`` a number or null; ``text|null`` a string or null (optional key);
+#: ``label`` a string, empty where it does not apply (the oracle has no detector).
 ROW_TYPES: dict[str, str] = {
     **dict.fromkeys(RECORD_KEYS, "number"),
     **dict.fromkeys(("scenario", "noise", "filters", "driver"), "text"),
+    **dict.fromkeys(("detector", "detector_version", "detector_spec"), "label"),
     **dict.fromkeys(("seed", "steps"), "count"),
     "severity": "severity",
     "collided": "flag",
@@ -61,6 +63,7 @@ _CHECKS: dict[str, Callable[[Any], bool]] = {
     "flag": lambda v: isinstance(v, bool) or _is_number(v),
     "number|null": lambda v: v is None or _is_number(v),
     "text|null": lambda v: v is None or isinstance(v, str),
+    "label": lambda v: isinstance(v, str),
 }
 _EXPECTED = {
     "text": "a non-empty string",
@@ -70,6 +73,7 @@ _EXPECTED = {
     "flag": "true, false or a number",
     "number|null": "a number or null",
     "text|null": "a string or null",
+    "label": "a string",
 }
 
 

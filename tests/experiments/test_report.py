@@ -45,6 +45,7 @@ def test_mean_ci_drops_missing_values_and_handles_tiny_samples():
 def _record(**kw):
     r = dict.fromkeys(RECORD_KEYS, 0.0)
     r.update(scenario="racetrack", noise="rain", severity=0.7, filters="none", driver="detector", seed=0, steps=5)
+    r.update(detector="paper", detector_version="", detector_spec="paper")
     r.update(collided=False, min_ttc_s=None, error=None)
     r.update(kw)
     return r

@@ -1,0 +1,330 @@
+"""Any road detector in the same closed loop: the protocol, finding one by name, the filters in front.
+
+**The protocol.** A detector is any object with
+
+``predict(image: uint8 (H, W, 3) RGB) -> bool (H, W)``
+    True where it sees road;
+
+and optionally ``reset()`` (called at the start of every episode, for detectors with
+a memory of past frames) and the attributes ``name`` and ``version`` (strings, for
+the records). The shipped :class:`~simroad.detector.RoadDetector` is the built-in
+``paper`` detector.
+
+**Finding one by name** (:func:`load_detector`), a *spec* is one of
+
+- a registered name: ``paper``, anything :func:`register` added, or an entry point of
+  the group ``simroad.detectors`` of an installed package (``[project.entry-points.
+  "simroad.detectors"] mine = "my_pkg.detect:MyDetector"``), the way gymnasium
+  environments and pytest plugins register;
+- ``package.module:attr``, an importable class or factory;
+- ``path/to/file.py:attr``, a class or factory in a Python file.
+
+The class or factory is called with keyword options (from TOML or
+``--detector-option key=value``). A detector is imported and built once per process
+and spec+options (:func:`load_detector` caches it), not once per episode.
+
+**The paper's filters in front of any detector.** :class:`FilteredDetector` runs the
+shadow, rain/snow and light filters (:func:`simroad.filters.apply_filters`) on the
+frame before the detector sees it: "does the shadow filter help *my* model?" is the
+paper's ablation, generalised. The ``paper`` detector runs its filters itself (its
+fast lookup-table path), with the same result.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import importlib
+import importlib.metadata
+import importlib.util
+import inspect
+import sys
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from simroad._validation import SimroadError
+from simroad.filters import apply_filters, format_filters
+from simroad.filters.pipeline import check_filters, check_variant
+
+__all__ = [
+    "ENTRY_POINT_GROUP",
+    "Detector",
+    "FilteredDetector",
+    "available_detectors",
+    "check_mask",
+    "clear_detector_cache",
+    "describe",
+    "load_detector",
+    "parse_detector_options",
+    "register",
+    "resolve_factory",
+]
+
+#: The entry-point group an installed package registers its detectors in.
+ENTRY_POINT_GROUP = "simroad.detectors"
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """What simroad needs of a road detector (``reset``, ``name``, ``version`` optional)."""
+
+    def predict(self, image: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+        """Road mask, bool (H, W), of an RGB uint8 (H, W, 3) frame."""
+        ...
+
+
+def _paper(*, filters: Sequence[str] = (), filter_variant: str = "improved", morphology: bool = True) -> Any:
+    """The shipped model of the paper's detector (:meth:`RoadDetector.pretrained`)."""
+    from simroad import __version__
+    from simroad.detector.detector import RoadDetector  # the registry is imported by the detector package
+
+    det = RoadDetector.pretrained(filters, morphology=morphology, filter_variant=filter_variant)
+    det.name, det.version = "paper", f"simroad {__version__}"
+    return det
+
+
+_REGISTRY: dict[str, Callable[..., Any]] = {"paper": _paper}
+
+
+def register(name: str, factory: Callable[..., Any]) -> None:
+    """Register ``factory`` (a class or a callable taking keyword options) under ``name``."""
+    if not isinstance(name, str) or not name.isidentifier():
+        raise SimroadError(f"name: expected a detector name like 'my_detector' (an identifier), got {name!r}.")
+    if not callable(factory):
+        raise SimroadError(f"factory: expected a class or a callable returning a detector, got {factory!r}.")
+    _REGISTRY[name] = factory
+    clear_detector_cache()
+
+
+def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
+    return {ep.name: ep for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def available_detectors() -> dict[str, str]:
+    """Every detector known by name: ``{name: where it comes from}`` (built in,
+    :func:`register`, or the entry point's ``module:attr``)."""
+    out = {name: ("built in" if name == "paper" else "registered") for name in _REGISTRY}
+    for name, ep in _entry_points().items():
+        out.setdefault(name, f"entry point {ep.value}")
+    return out
+
+
+def _how_to() -> str:
+    names = ", ".join(sorted(available_detectors()))
+    return (
+        f"use a registered name ({names}), 'package.module:attr' or 'path/to/file.py:attr' "
+        f"(a class or factory returning an object with predict(image) -> bool mask)"
+    )
+
+
+def resolve_factory(spec: str) -> Callable[..., Any]:
+    """The class or factory a detector spec names (see the module docstring)."""
+    if not isinstance(spec, str) or not spec.strip():
+        raise SimroadError(f"detector: expected a detector spec, got {spec!r}; {_how_to()}.")
+    spec = spec.strip()
+    if spec in _REGISTRY:
+        return _REGISTRY[spec]
+    if ":" not in spec:
+        eps = _entry_points()
+        if spec in eps:
+            try:
+                return eps[spec].load()
+            except Exception as exc:  # a broken plug-in is reported by name
+                raise SimroadError(
+                    f"detector: the entry point {spec!r} ({eps[spec].value}) failed to load: "
+                    f"{type(exc).__name__}: {exc}."
+                ) from None
+        raise SimroadError(f"detector: unknown detector {spec!r}; {_how_to()}.")
+    where, _, attr = spec.rpartition(":")
+    if not attr.isidentifier():
+        raise SimroadError(f"detector: {spec!r} names no attribute after ':'; {_how_to()}.")
+    if where.endswith(".py") or "/" in where or "\\" in where:
+        module = _module_from_file(spec, Path(where))
+    else:
+        try:
+            module = importlib.import_module(where)
+        except ImportError as exc:
+            raise SimroadError(
+                f"detector: cannot import {where!r} for {spec!r} ({exc}); install the package or put it on PYTHONPATH."
+            ) from None
+    try:
+        factory = getattr(module, attr)
+    except AttributeError:
+        raise SimroadError(f"detector: {where!r} has no attribute {attr!r} (spec {spec!r}).") from None
+    if not callable(factory):
+        raise SimroadError(f"detector: {spec!r} is a {type(factory).__name__}, not a class or factory.")
+    return factory
+
+
+def _module_from_file(spec: str, path: Path) -> Any:
+    path = path.expanduser().resolve()
+    if not path.is_file():
+        raise SimroadError(f"detector: no file {str(path)!r} (spec {spec!r}).")
+    name = f"simroad_user_detector_{abs(hash(str(path)))}"
+    if name in sys.modules:
+        return sys.modules[name]
+    loader_spec = importlib.util.spec_from_file_location(name, path)
+    if loader_spec is None or loader_spec.loader is None:
+        raise SimroadError(f"detector: {str(path)!r} is not a Python file (spec {spec!r}).")
+    module = importlib.util.module_from_spec(loader_spec)
+    sys.modules[name] = module
+    try:
+        loader_spec.loader.exec_module(module)
+    except Exception as exc:  # the user's file: report it by name
+        del sys.modules[name]
+        raise SimroadError(f"detector: running {str(path)!r} failed: {type(exc).__name__}: {exc}.") from None
+    return module
+
+
+def parse_detector_options(items: Iterable[str] | Mapping[str, Any] | None) -> dict[str, Any]:
+    """Options for a detector's factory: a mapping (from TOML) as it is, or
+    ``key=value`` strings (from ``--detector-option``), the value read as a Python
+    literal (``3``, ``0.5``, ``True``, ``'x'``, ``[1, 2]``) or else as a string."""
+    if items is None:
+        return {}
+    if isinstance(items, Mapping):
+        for key in items:
+            if not isinstance(key, str) or not key.isidentifier():
+                raise SimroadError(f"detector options: expected keyword names, got {key!r}.")
+        return dict(items)
+    out: dict[str, Any] = {}
+    for item in items:
+        key, sep, text = str(item).partition("=")
+        key = key.strip()
+        if not sep or not key.isidentifier():
+            raise SimroadError(f"--detector-option: expected key=value (e.g. threshold=0.5), got {item!r}.")
+        try:
+            value: Any = ast.literal_eval(text.strip())
+        except (ValueError, SyntaxError):
+            value = text.strip()
+        out[key] = value
+    return out
+
+
+def _freeze(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return tuple(sorted((k, _freeze(v)) for k, v in value.items()))
+    if isinstance(value, list | tuple):
+        return tuple(_freeze(v) for v in value)
+    return value
+
+
+def load_detector(
+    spec: str,
+    options: Mapping[str, Any] | None = None,
+    *,
+    filters: Sequence[str] = (),
+    filter_variant: str = "improved",
+) -> Any:
+    """Build the detector ``spec`` names with keyword ``options``, the paper's
+    ``filters`` in front (see the module docstring). Cached per process: the same
+    spec, options and filters give the same object (call its ``reset()`` per episode)."""
+    opts = parse_detector_options(options)
+    names = check_filters(filters)
+    variant = check_variant(filter_variant)
+    return _load(spec, _freeze(opts), names, variant)
+
+
+@functools.lru_cache(maxsize=32)
+def _load(spec: str, frozen: tuple, filters: tuple[str, ...], variant: str) -> Any:
+    opts = {k: _thaw(v) for k, v in frozen}
+    factory = resolve_factory(spec)
+    if factory is _paper:
+        return _paper(filters=filters, filter_variant=variant, **opts)
+    try:
+        detector = factory(**opts)
+    except TypeError as exc:
+        raise SimroadError(
+            f"detector options: {spec!r} did not accept {sorted(opts) or 'no options'}: {exc}. "
+            f"Its signature: {_signature(factory)}."
+        ) from None
+    if not callable(getattr(detector, "predict", None)):
+        raise SimroadError(
+            f"detector: {spec!r} built a {type(detector).__name__} without a predict(image) method; "
+            "a detector needs predict(uint8 (H, W, 3)) -> bool (H, W)."
+        )
+    if getattr(detector, "name", None) is None:
+        try:
+            detector.name = spec
+        except AttributeError:
+            pass
+    return FilteredDetector(detector, filters, filter_variant=variant) if filters else detector
+
+
+def clear_detector_cache() -> None:
+    """Forget the detectors :func:`load_detector` built (they are built anew on request)."""
+    _load.cache_clear()
+
+
+def _thaw(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
+
+
+def _signature(factory: Callable[..., Any]) -> str:
+    try:
+        return f"{getattr(factory, '__name__', 'factory')}{inspect.signature(factory)}"
+    except (TypeError, ValueError):
+        return "unknown"
+
+
+class FilteredDetector:
+    """``detector`` behind the paper's filters: each frame goes through
+    :func:`simroad.filters.apply_filters` (``filters``, ``filter_variant``) first."""
+
+    def __init__(self, detector: Any, filters: Sequence[str], *, filter_variant: str = "improved") -> None:
+        if not callable(getattr(detector, "predict", None)):
+            raise SimroadError(f"detector: expected an object with predict(image), got {type(detector).__name__}.")
+        self.detector = detector
+        self.filters = check_filters(filters)
+        self.filter_variant = check_variant(filter_variant)
+
+    @property
+    def name(self) -> str:
+        return describe(self.detector)["name"]
+
+    @property
+    def version(self) -> str:
+        return describe(self.detector)["version"]
+
+    def reset(self) -> None:
+        reset = getattr(self.detector, "reset", None)
+        if callable(reset):
+            reset()
+
+    def predict(self, image: np.ndarray) -> np.ndarray:
+        return self.detector.predict(apply_filters(image, self.filters, variant=self.filter_variant))
+
+    def __repr__(self) -> str:
+        return f"FilteredDetector({self.detector!r}, filters={format_filters(self.filters)!r})"
+
+
+def describe(detector: Any) -> dict[str, str]:
+    """``{"name", "version"}`` of a detector for the records: its ``name`` and
+    ``version`` attributes, else its class name and ``""``."""
+    name = getattr(detector, "name", None)
+    version = getattr(detector, "version", None)
+    return {
+        "name": str(name) if name is not None else type(detector).__name__,
+        "version": str(version) if version is not None else "",
+    }
+
+
+def check_mask(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:
+    """A detector's output as a bool (H, W) mask, or a clear error naming the detector."""
+    arr = np.asarray(mask)
+    if arr.shape != tuple(shape):
+        raise SimroadError(
+            f"detector {describe(detector)['name']!r}: predict() returned shape {arr.shape}, expected the "
+            f"frame's {tuple(shape)} (a bool road mask)."
+        )
+    if arr.dtype != np.bool_:
+        if arr.dtype.kind not in "biu":
+            raise SimroadError(
+                f"detector {describe(detector)['name']!r}: predict() returned {arr.dtype}, expected a bool mask "
+                "(threshold scores yourself, e.g. scores > 0.5)."
+            )
+        arr = arr != 0
+    return arr
