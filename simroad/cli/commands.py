@@ -191,18 +191,37 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
-    """``simroad evaluate-detector``: score filter settings on frames; optional figure."""
-    if args.images is not None or args.masks is not None:
+    """``simroad evaluate-detector``: score filter settings on frames; optional figure;
+    with ``--images`` and a ``--noise``, the robustness to weather on the photos."""
+    if isinstance(args.noise, str):  # as typed: comma-separated weather specs
+        args.noise = [n.strip() for n in args.noise.split(",") if n.strip()]
+    args.severity = list(args.severity)
+    photos = args.images is not None or args.masks is not None
+    if photos:
         if args.images is None or args.masks is None:
             raise SimroadError("--images/--masks: give both folders (images and their road masks), or neither.")
-        refuse_flags(args, ("scenario", "noise", "severity", "seeds", "seed_start", "frames"),
+        refuse_flags(args, ("scenario", "seeds", "seed_start", "frames"),
                      "with --images (the frames are read from the folder, not rendered)")  # fmt: skip
+    else:
+        refuse_flags(args, ("weather_seed", "hfov", "pitch", "mount_height", "plot"),
+                     "without --images (they set the weather on photographs)")  # fmt: skip
+        if len(args.noise) != 1 or len(args.severity) != 1:
+            raise SimroadError(
+                "--noise/--severity: rendered frames have one weather and one severity; lists are for --images."
+            )
+    if photos and args.noise != ["clear"]:
+        return _evaluate_photos(args)
+    if photos and "severity" in given(args):
+        refuse_flags(args, ("severity",), "with --images and no --noise (clean photos have no severity)")
+    if photos:
+        refuse_flags(args, ("weather_seed", "hfov", "pitch", "mount_height", "plot"),
+                     "with --images and no --noise (no weather is put on the photos)")  # fmt: skip
     seeds = seed_range(args.seed_start, args.seeds)
     rows, frows = evaluate_detector(
         [f.strip() for f in args.filters.split(",") if f.strip()],
         scenarios=args.scenario,
-        noise=args.noise,
-        severity=args.severity,
+        noise=args.noise[0],
+        severity=args.severity[0],
         seeds=seeds,
         frames_per_seed=args.frames,
         images=args.images or None,
@@ -220,6 +239,30 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             print(format_table(frows))
     if args.figure:
         print(f"wrote {qualitative_figure(args.figure)}")
+    return 0
+
+
+def _evaluate_photos(args: argparse.Namespace) -> int:
+    """The weather on the user's photos: a robustness table per noise and severity."""
+    from simroad.experiments.evaluate import detector_factory, load_image_folder
+    from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
+
+    if args.figure:
+        raise SimroadError("--figure: draws rendered frames of every weather; it does not apply with --images.")
+    noises = [n for n in args.noise if n != "clear"]
+    factory = detector_factory(args.model, args.detector, parse_detector_options(args.detector_option))
+    frames = fit_to_camera(load_image_folder(args.images, args.masks))
+    mount = PhotoCamera(hfov_deg=args.hfov, pitch_deg=args.pitch, mount_height_m=args.mount_height)
+    settings = [parse_filters(f) for f in args.filters.split(",") if f.strip()]
+    rows, summary = robustness(frames, settings, noises, args.severity, factory, seed=args.weather_seed, mount=mount)
+    if args.json:
+        print(json.dumps({"robustness": rows, "summary": summary}))
+    else:
+        print(format_table(rows, percent=("fnr", "fpr")))
+        print()
+        print(format_table(summary))
+    if args.plot:
+        print(f"wrote {robustness_figure(rows, args.plot)}")
     return 0
 
 

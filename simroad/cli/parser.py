@@ -26,6 +26,7 @@ from simroad.experiments.export import export_frames
 from simroad.experiments.figures import camera_figure, figure_suffixes
 from simroad.experiments.filter_effect import filter_effect_table
 from simroad.experiments.grid import AblationGrid
+from simroad.experiments.robustness import PhotoCamera
 from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
 from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters
 from simroad.noise import NOISE_NAMES
@@ -257,10 +258,17 @@ def _add_detector(sub: Any) -> None:
         help=f"comma-separated scenarios (default: {_shown(d['scenarios'])})",
     )
     p.add_argument(
-        "--noise", type=_NOISE, default=d["noise"], help=f"weather of the rendered frames (default: {d['noise']})"
+        "--noise",
+        type=_NOISES,
+        default=[d["noise"]],
+        help=f"weather of the rendered frames (default: {d['noise']}); with --images, comma-separated weathers "
+        "put on the photos, each scored against the clean photos",
     )
     p.add_argument(
-        "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
+        "--severity",
+        type=T.float_list(0.0, 1.0),
+        default=[d["severity"]],
+        help=f"weather severity in [0, 1] (default: {d['severity']}); with --images, comma-separated severities",
     )
     p.add_argument(
         "--filters",
@@ -294,6 +302,30 @@ def _add_detector(sub: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
     _add_detector_flags(p)
+    photo = PhotoCamera()
+    g = p.add_argument_group("weather on photographs (with --images and --noise)")
+    g.add_argument("--weather-seed", type=T.seed(), default=0, help="seed of the weather on the photos (default: 0)")
+    g.add_argument(
+        "--hfov",
+        type=T.float_in(10.0, 170.0, unit="degrees"),
+        default=photo.hfov_deg,
+        help=f"the photos' horizontal field of view in degrees (default: {photo.hfov_deg:g})",
+    )
+    g.add_argument(
+        "--pitch",
+        type=T.float_in(-30.0, 60.0, unit="degrees"),
+        default=photo.pitch_deg,
+        help=f"the camera's pitch down in degrees (default: {photo.pitch_deg:g})",
+    )
+    g.add_argument(
+        "--mount-height",
+        type=T.float_in(0.2, 10.0, unit="m"),
+        default=photo.mount_height_m,
+        help=f"the camera's height above the road in m (default: {photo.mount_height_m:g})",
+    )
+    g.add_argument(
+        "--plot", type=T.output_file(figure_suffixes), help="write the retained-IoU plot (per weather) to this PNG"
+    )
     p.set_defaults(func=commands.cmd_evaluate)
 
     d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}

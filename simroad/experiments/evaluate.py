@@ -26,6 +26,7 @@ from simroad.metrics.mask import MaskScore
 
 __all__ = [
     "FILTER_MASK_TRUTH",
+    "detector_factory",
     "evaluate_detector",
     "evaluate_frames",
     "format_table",
@@ -99,6 +100,17 @@ def _pretrained(filters: tuple[str, ...]) -> Any:
     from simroad.detector import RoadDetector
 
     return RoadDetector.pretrained(filters=filters)
+
+
+def detector_factory(
+    model: str | os.PathLike | None, detector: str = "paper", options: Mapping[str, Any] | None = None
+) -> DetectorFactory:
+    """``filters -> detector`` for a model file (the paper's detector) or a detector spec."""
+    if model is not None and detector != "paper":
+        raise SimroadError(
+            f"model: a model file is for the paper's detector; got it with detector={detector!r}. Give one of them."
+        )
+    return model_factory(model) if model is not None else _spec_factory(detector, options)
 
 
 def _spec_factory(spec: str, options: Mapping[str, Any] | None) -> DetectorFactory:
@@ -230,11 +242,7 @@ def evaluate_detector(
     else:
         check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
         check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
-    if model is not None and detector != "paper":
-        raise SimroadError(
-            f"model: a model file is for the paper's detector; got it with detector={detector!r}. Give one of them."
-        )
-    factory = model_factory(model) if model is not None else _spec_factory(detector, detector_options)
+    factory = detector_factory(model, detector, detector_options)
     if images is not None and masks is not None:
         frames = load_image_folder(images, masks)
     else:
