@@ -15,6 +15,8 @@ import pytest
 SLOW = (
     "tests/experiments/test_closed_loop_acceptance.py::",
     "tests/experiments/test_ablate_real.py::",
+    "tests/experiments/test_plugin_detector.py::",
+    "tests/experiments/test_robustness.py::",
     "tests/experiments/test_filter_effect.py::test_light_filter_lowers_fnr_plus_fpr_under_strong_glare",
     "tests/experiments/test_filter_effect.py::test_paper_light_filter_leaves_grey_asphalt_glare_in_place",
     "tests/experiments/test_filter_effect.py::test_improved_rain_snow_filter_lifts_the_snow_veil",
