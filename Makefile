@@ -28,8 +28,8 @@ demo: $(STAMP)
 
 # A lint, format or type error fails the build before any test runs.
 lint: $(STAMP)
-	$(BIN)/ruff check simroad tests benchmarks
-	$(BIN)/ruff format --check simroad tests benchmarks
+	$(BIN)/ruff check simroad tests benchmarks examples
+	$(BIN)/ruff format --check simroad tests benchmarks examples
 	$(BIN)/mypy
 
 test: lint

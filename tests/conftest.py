@@ -16,6 +16,7 @@ SLOW = (
     "tests/experiments/test_closed_loop_acceptance.py::",
     "tests/experiments/test_ablate_real.py::",
     "tests/experiments/test_plugin_detector.py::",
+    "examples/test_gate.py::",
     "tests/experiments/test_robustness.py::",
     "tests/experiments/test_filter_effect.py::test_light_filter_lowers_fnr_plus_fpr_under_strong_glare",
     "tests/experiments/test_filter_effect.py::test_paper_light_filter_leaves_grey_asphalt_glare_in_place",
@@ -35,7 +36,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     root = config.rootpath
     for item in items:
         nodeid = item.nodeid
-        if not nodeid.startswith("tests/"):  # run from another directory: make it relative to the root
+        if not nodeid.startswith(("tests/", "examples/")):  # run from another directory: relative to the root
             nodeid = os.path.relpath(str(item.path), root).replace(os.sep, "/") + "::" + item.name
         if nodeid.startswith(SLOW):
             item.add_marker(pytest.mark.slow)
