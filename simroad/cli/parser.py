@@ -76,6 +76,7 @@ def _add_detector_flags(p: Any) -> None:
     """``--detector SPEC`` and ``--detector-option key=value`` (see simroad.detector.registry)."""
     p.add_argument(
         "--detector",
+        type=T.detector_spec(),
         default="paper",
         metavar="SPEC",
         help="the road detector: paper (the shipped one), a registered name, package.module:attr or "
@@ -84,6 +85,7 @@ def _add_detector_flags(p: Any) -> None:
     )
     p.add_argument(
         "--detector-option",
+        type=T.detector_option(),
         action="append",
         default=[],
         metavar="KEY=VALUE",
@@ -173,6 +175,7 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument(
         "--detectors",
+        type=T.detector_specs(),
         help="comma-separated detector specs: paper, registered names, package.module:attr or "
         f"path/to/file.py:attr (default: {d['detectors']}); their options go in the TOML file's "
         '[detector-options."SPEC"] tables, or --detector-option',
@@ -180,6 +183,7 @@ def _add_ablate(sub: Any) -> None:
     p.add_argument(
         "--detector-option",
         dest="detector_option",
+        type=T.detector_option(targeted=True),
         action="append",
         default=[],
         metavar="SPEC@KEY=VALUE",

@@ -314,3 +314,37 @@ class GivenParser(argparse.ArgumentParser):
 def given(args: argparse.Namespace) -> set[str]:
     """The destinations (``seed_start``, ...) set on the command line."""
     return set(getattr(args, "_given", set()))
+
+
+def detector_spec() -> Callable[[str], str]:
+    """A detector spec (see :mod:`simroad.detector.registry`), resolved now (returned as typed)."""
+
+    def check(value: str) -> str:
+        from simroad.detector.registry import resolve_factory
+
+        resolve_factory(value)
+        return value.strip()
+
+    return checked(check, "detector", bad=[("unknown name", "bogus"), ("empty", ""), ("no such file", "/no/x.py:D")])
+
+
+def detector_specs() -> Callable[[str], str]:
+    """Comma-separated detector specs, each resolved now (returned as typed)."""
+    from simroad.detector.registry import resolve_factory
+
+    bad = [("unknown name", "paper,bogus"), ("empty", ",")]
+    return checked(lambda value: _each(value, resolve_factory, "paper,mine.py:Detector"), "detectors", bad=bad)
+
+
+def detector_option(*, targeted: bool = False) -> Callable[[str], str]:
+    """``key=value`` (``SPEC@key=value`` where ``targeted``), the key an identifier
+    (returned as typed; the value is read by the registry)."""
+
+    def check(value: str) -> str:
+        from simroad.detector.registry import parse_detector_options
+
+        pair = value.rpartition("@")[2] if targeted else value
+        parse_detector_options([pair])
+        return value
+
+    return checked(check, "detector option", bad=[("no value", "fraction"), ("no key", "=3"), ("bad key", "a b=3")])

@@ -54,6 +54,7 @@ __all__ = [
     "Detector",
     "FilteredDetector",
     "available_detectors",
+    "check_detector",
     "check_mask",
     "clear_detector_cache",
     "describe",
@@ -179,12 +180,39 @@ def _module_from_file(spec: str, path: Path) -> Any:
     return module
 
 
+def check_detector(spec: str, options: Any = None) -> tuple[Callable[..., Any], dict[str, Any]]:
+    """Resolve ``spec`` and check ``options`` against its class or factory's signature
+    now (before any episode): the factory and the parsed options, or an error naming
+    ``detector`` or ``detector_options``."""
+    factory = resolve_factory(spec)
+    opts = parse_detector_options(options)
+    if factory is _paper and ({"filters", "filter_variant"} & set(opts)):
+        raise SimroadError(
+            "detector_options: the paper detector's filters are the spec's filters (filters=, --filters), "
+            f"not an option; got {sorted(opts)}."
+        )
+    try:
+        inspect.signature(factory).bind_partial(**opts)
+    except TypeError as exc:
+        raise SimroadError(
+            f"detector_options: {spec!r} does not take {sorted(opts)} ({exc}); its signature: {_signature(factory)}."
+        ) from None
+    except ValueError:  # no signature to check (a builtin): checked when it is built
+        pass
+    return factory, opts
+
+
 def parse_detector_options(items: Iterable[str] | Mapping[str, Any] | None) -> dict[str, Any]:
     """Options for a detector's factory: a mapping (from TOML) as it is, or
     ``key=value`` strings (from ``--detector-option``), the value read as a Python
     literal (``3``, ``0.5``, ``True``, ``'x'``, ``[1, 2]``) or else as a string."""
     if items is None:
         return {}
+    if isinstance(items, str) or not isinstance(items, Mapping | list | tuple):
+        raise SimroadError(
+            f"detector_options: expected a mapping of keyword options such as {{'threshold': 0.5}} "
+            f"(or key=value strings), got {type(items).__name__} {items!r}."
+        )
     if isinstance(items, Mapping):
         for key in items:
             if not isinstance(key, str) or not key.isidentifier():

@@ -53,7 +53,7 @@ from simroad._validation import (
     check_output_file,
 )
 from simroad.control.drivers import DRIVER_NAMES, make_driver
-from simroad.detector.registry import describe, load_detector, parse_detector_options
+from simroad.detector.registry import check_detector, describe, load_detector
 from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
 from simroad.experiments.video import EpisodeVideo
@@ -115,7 +115,7 @@ class EpisodeSpec:
                 f"detector: expected a detector spec ('paper', a registered name, 'module:attr' or "
                 f"'path/to/file.py:attr'), got {self.detector!r}."
             )
-        object.__setattr__(self, "detector_options", parse_detector_options(self.detector_options))
+        object.__setattr__(self, "detector_options", check_detector(self.detector, self.detector_options)[1])
         self._check_env()
 
     def _check_env(self) -> None:

@@ -21,7 +21,7 @@ from simroad._validation import (
     check_in_range,
     check_int_in_range,
 )
-from simroad.detector.registry import parse_detector_options
+from simroad.detector.registry import check_detector, resolve_factory
 from simroad.envs.config import SCENARIO_NAMES
 from simroad.experiments.episode import EpisodeSpec, format_filters, parse_filters
 
@@ -99,8 +99,11 @@ class AblationGrid:
         sev = tuple(check_in_range("severities", v, 0.0, 1.0) for v in _numbers("severities", self.severities))
         filt = tuple(format_filters(parse_filters(f)) for f in _split("filters", self.filters))
         dets = tuple(str(d).strip() for d in _split("detectors", self.detectors))
-        if any(not d for d in dets):
-            raise SimroadError(f"detectors: expected detector specs such as 'paper', got {list(self.detectors)!r}.")
+        for d in dets:
+            try:
+                resolve_factory(d)
+            except SimroadError as exc:
+                raise SimroadError(f"detectors: {exc}") from None
         for name, vals in (
             ("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt), ("detectors", dets)
         ):  # fmt: skip
@@ -184,7 +187,7 @@ def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dic
                 f"detector_options: {spec!r} is not one of the grid's detectors {list(detectors)}; "
                 "give options only for a detector the grid runs."
             )
-        out[spec] = parse_detector_options(opts)
+        out[spec] = check_detector(spec, opts)[1]
     return out
 
 

@@ -277,7 +277,7 @@ def test_an_episode_error_is_a_row_and_a_lost_cell_is_never_retried(callers_ray,
 
     counter = tmp_path / "calls.txt"
     with pytest.raises(
-        SimroadError, match=r"2 cell\(s\) did not run: racetrack\|clear\|0\|none\|detector\|1[23].*resume"
+        SimroadError, match=r"2 cell\(s\) did not run: racetrack\|clear\|0\|none\|detector\|paper\|1[23].*resume"
     ):
         run_ablation(grid, tmp_path / "lost", backend="ray", cell_fn=partial(_raising_cell, counter), progress=False)
     calls = counter.read_text().splitlines()

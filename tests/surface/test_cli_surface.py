@@ -171,9 +171,18 @@ MODE_CASES = [
     *(
         pytest.param(["evaluate-detector", "--images", "{dir}", "--masks", "{dir}", flag, value], (flag,),
                      id=f"evaluate-detector --images with {flag}")
-        for flag, value in (("--scenario", "racetrack"), ("--noise", "rain"), ("--severity", "0.5"),
-                            ("--seeds", "1"), ("--seed-start", "100"), ("--frames", "2"))
+        for flag, value in (("--scenario", "racetrack"), ("--seeds", "1"), ("--seed-start", "100"), ("--frames", "2"))
     ),
+    # --noise puts the weather on the photos; without it a severity has nothing to scale.
+    pytest.param(["evaluate-detector", "--images", "{dir}", "--masks", "{dir}", "--severity", "0.5"], ("--severity",),
+                 id="evaluate-detector --images with --severity and no --noise"),
+    *(
+        pytest.param(["evaluate-detector", flag, value], (flag,), id=f"evaluate-detector {flag} without --images")
+        for flag, value in (("--hfov", "90"), ("--pitch", "3"), ("--mount-height", "1.5"), ("--weather-seed", "3"),
+                            ("--plot", "{ok}/p.png"))
+    ),
+    pytest.param(["evaluate-detector", "--noise", "rain,snow"], ("--noise",),
+                 id="evaluate-detector a list of weathers without --images"),
     pytest.param(["evaluate-detector", "--masks", "{dir}"], ("--images",), id="evaluate-detector --masks alone"),
     pytest.param(["evaluate-detector", "--images", "{dir}"], ("--masks",), id="evaluate-detector --images alone"),
     pytest.param(["episode", "--driver", "oracle", "--filters", "all"], ("--filters",), id="episode oracle with --filters"),
@@ -216,6 +225,7 @@ def test_flags_that_do_not_apply_are_refused(argv, names, files, image_folder, n
 
 _TOML_BAD = {
     "tuple[str, ...]": [("wrong type", "5"), ("unknown name", '["bogus"]')],
+    "dict": [("wrong type", "5"), ("not a grid detector", "{{ bogus = {{ a = 1 }} }}")],  # braces: str.format
     "tuple[float, ...]": [("not a number", '[0.5, "x"]'), ("out of range", "[2.0]")],
     "int": [("wrong type", '"3"'), ("out of range", "-1")],
     "bool": [("string boolean", '"no"'), ("integer", "3")],
