@@ -17,6 +17,7 @@ SLOW = (
     "tests/experiments/test_ablate_real.py::",
     "tests/experiments/test_plugin_detector.py::",
     "examples/test_gate.py::",
+    "tests/experiments/test_example_detector.py::",
     "tests/experiments/test_robustness.py::",
     "tests/experiments/test_filter_effect.py::test_light_filter_lowers_fnr_plus_fpr_under_strong_glare",
     "tests/experiments/test_filter_effect.py::test_paper_light_filter_leaves_grey_asphalt_glare_in_place",
