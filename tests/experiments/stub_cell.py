@@ -34,3 +34,27 @@ def stub_episode(spec):
 def stub_cell(spec):
     """The real :func:`run_cell` around the stub episode (picklable, top level)."""
     return run_cell(spec, episode_fn=stub_episode)
+
+
+def contender(out: str, grid, start, conn) -> None:
+    """One of two concurrent sweeps (a process of its own, see test_sweep_faults):
+    report (outcome, message) through ``conn``."""
+    import traceback
+
+    from simroad import SimroadError
+    from simroad.experiments.ablate import DirectoryLocked, run_ablation
+
+    global DELAY_S
+    try:
+        DELAY_S = 0.01  # 12 cells: ~0.12 s of work, so the two usually overlap
+        start.wait(timeout=30)
+        run_ablation(grid, out, workers=1, progress=False, cell_fn=stub_cell)
+        result = ("done", "")
+    except DirectoryLocked as exc:
+        result = ("locked", str(exc))
+    except SimroadError as exc:
+        result = ("refused", str(exc))
+    except BaseException:
+        result = ("crash", traceback.format_exc())
+    conn.send(result)
+    os._exit(0)

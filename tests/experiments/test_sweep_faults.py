@@ -10,9 +10,7 @@ import socket
 import subprocess
 import sys
 import time
-import traceback
 from pathlib import Path
-from typing import Any
 
 import pytest
 
@@ -102,30 +100,16 @@ def test_cli_ablate_on_a_locked_directory_exits_2_naming_the_holder(tmp_path):
 # --- two sweeps at once --------------------------------------------------------------------------
 
 
-def _contender(out: str, grid: AblationGrid, start: Any, conn: Any) -> None:
-    """One of two concurrent sweeps (a forked process): report (outcome, message)."""
-    try:
-        stub.DELAY_S = 0.01  # 12 cells: ~0.12 s of work, so the two usually overlap
-        start.wait(timeout=30)
-        run_ablation(grid, out, workers=1, progress=False, cell_fn=stub_cell)
-        result = ("done", "")
-    except DirectoryLocked as exc:
-        result = ("locked", str(exc))
-    except SimroadError as exc:
-        result = ("refused", str(exc))
-    except BaseException:
-        result = ("crash", traceback.format_exc())
-    conn.send(result)
-    os._exit(0)
-
-
 def _race(out: Path, grids: tuple[AblationGrid, AblationGrid]) -> list[tuple[int, str, str]]:
-    ctx = multiprocessing.get_context("fork")
+    # A fork server, not fork: this pytest worker may hold threads (a Ray driver, OpenCV)
+    # whose locks a forked child would inherit taken; the server is a clean process.
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["stub_cell", "simroad.experiments.ablate"])
     start = ctx.Barrier(2)
     procs = []
     for grid in grids:
         parent, child = ctx.Pipe()
-        proc = ctx.Process(target=_contender, args=(str(out), grid, start, child))
+        proc = ctx.Process(target=stub.contender, args=(str(out), grid, start, child))
         proc.start()
         procs.append((proc, parent))
     outcomes = []
