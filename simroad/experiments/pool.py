@@ -16,6 +16,7 @@ at worst leave the last line torn, which the next run moves aside.
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -30,6 +31,16 @@ __all__ = ["Interrupts", "run_in_workers"]
 _POLL_S = 0.1
 #: How long (s) terminated workers get to exit before they are killed.
 _TERM_GRACE_S = 2.0
+
+
+def _context() -> Any:
+    """How to start workers: fork (they inherit the parent's imports, fast), unless
+    this process has run Ray: its gRPC threads hold locks a forked worker would
+    inherit taken, and hang on (a clean fork server then starts them; the cell
+    function must be importable, as :func:`~simroad.experiments.ablate.run_cell` is)."""
+    if "ray" in sys.modules:
+        return get_context("forkserver")
+    return get_context()
 
 
 class Interrupts:
@@ -89,7 +100,7 @@ def _worker(conn: Connection, cell_fn: Callable, initializer: Callable[[], None]
 
 class _Workers:
     def __init__(self, n: int, cell_fn: Callable, initializer: Callable[[], None] | None) -> None:
-        ctx = get_context()
+        ctx = _context()
         self.procs: list[Any] = []
         self.conns: list[Connection] = []
         for _ in range(n):
