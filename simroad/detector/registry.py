@@ -195,7 +195,7 @@ def check_detector(spec: str, options: Any = None) -> tuple[Callable[..., Any], 
         inspect.signature(factory).bind_partial(**opts)
     except TypeError as exc:
         raise SimroadError(
-            f"detector_options: {spec!r} does not take {sorted(opts)} ({exc}); its signature: {_signature(factory)}."
+            f"detector_options: {spec!r} did not accept {sorted(opts)} ({exc}); its signature: {_signature(factory)}."
         ) from None
     except ValueError:  # no signature to check (a builtin): checked when it is built
         pass
@@ -258,17 +258,10 @@ def load_detector(
 
 @functools.lru_cache(maxsize=32)
 def _load(spec: str, frozen: tuple, filters: tuple[str, ...], variant: str) -> Any:
-    opts = {k: _thaw(v) for k, v in frozen}
-    factory = resolve_factory(spec)
+    factory, opts = check_detector(spec, {k: _thaw(v) for k, v in frozen})
     if factory is _paper:
         return _paper(filters=filters, filter_variant=variant, **opts)
-    try:
-        detector = factory(**opts)
-    except TypeError as exc:
-        raise SimroadError(
-            f"detector options: {spec!r} did not accept {sorted(opts) or 'no options'}: {exc}. "
-            f"Its signature: {_signature(factory)}."
-        ) from None
+    detector = factory(**opts)
     if not callable(getattr(detector, "predict", None)):
         raise SimroadError(
             f"detector: {spec!r} built a {type(detector).__name__} without a predict(image) method; "
