@@ -46,7 +46,8 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
     """Pair ``images/NAME.*`` with ``masks/NAME.*`` (road where the mask is > 127).
 
     Mask files may also be named like ``road_0000.png`` for ``frame_0000.png`` (the
-    layout ``simroad frames`` writes).
+    layout ``simroad frames`` writes); ``images`` and ``masks`` may then be one folder
+    (a mask file is never taken for an image).
     """
     idir, mdir = Path(images), Path(masks)
     for name, d in (("images", idir), ("masks", mdir)):
@@ -56,7 +57,8 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
     mask_files = {p.stem: p for p in mdir.iterdir() if p.suffix.lower() in exts}
     out = FrameSet()
     for p in sorted(q for q in idir.iterdir() if q.suffix.lower() in exts):
-        m = mask_files.get(p.stem) or mask_files.get(p.stem.replace("frame_", "road_"))
+        names = (p.stem, p.stem.replace("frame_", "road_"))
+        m = next((q for q in map(mask_files.get, names) if q is not None and q.resolve() != p.resolve()), None)
         if m is None:
             continue
         bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)

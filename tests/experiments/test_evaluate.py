@@ -62,6 +62,15 @@ def test_image_folder_and_model_file_give_the_same_rows(shadow_frames, tmp_path)
     assert len(folder.images) == 2 and np.array_equal(folder.images[1], shadow_frames.images[1])
     assert np.array_equal(folder.masks[0], shadow_frames.masks[0]) and folder.valid[0].all()
 
+    # the layout `simroad frames` writes: frames and road masks in one folder
+    for m in masks.iterdir():
+        m.rename(images / m.name)
+    same = load_image_folder(images, images)
+    assert [s[0] for s in same.source] == ["frame_0000.png", "frame_0001.png"]
+    assert all(np.array_equal(a, b) for a, b in zip(same.images, folder.images))
+    for m in list(images.glob("road_*")):
+        m.rename(masks / m.name)
+
     model = tmp_path / "model.npz"
     RoadDetector.pretrained().save(model)
     rows, _ = evaluate_detector(["none", "all"], images=images, masks=masks, model=model)
