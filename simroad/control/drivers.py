@@ -76,16 +76,19 @@ class MaskDriver:
                 f"got {type(control).__name__}."
             )
         self.detector = detector
+        self.camera = camera
         self.controller = MaskLaneKeeper(camera, control)
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:
-        """Forget the controller's memory of the previous episode (and the detector's,
-        if it has a ``reset()``)."""
+        """Forget the controller's memory of the previous episode, and start the
+        detector's: its ``reset()`` and ``set_camera(camera)``, where it has them (a
+        detector built once per process may have seen another camera before)."""
         self.controller.reset()
-        reset = getattr(self.detector, "reset", None)
-        if callable(reset):
-            reset()
+        for hook, args in (("reset", ()), ("set_camera", (self.camera,))):
+            fn = getattr(self.detector, hook, None)
+            if callable(fn):
+                fn(*args)
 
     def __call__(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         if self.detector is None:

@@ -248,8 +248,33 @@ class RoadDetector(BaseEstimator):
         else:
             mask = self.lut_.lookup(filtered_uint8_planes(image, filters, variant))
         if check_bool("morphology", self.morphology):
+            ground = getattr(self, "ground_", None)
+            if ground is not None and variant == "improved" and ground.shape == mask.shape:
+                mask &= ground  # nothing above the horizon is road, nor joins the road
             mask = _fill_holes(_ego_component(mask))
         return mask
+
+    def set_camera(self, camera: Any) -> RoadDetector:
+        """Tell the detector the calibrated camera its frames come from (or None to forget it).
+
+        The drivers call it once per episode (the optional ``set_camera`` of the
+        detector protocol, :mod:`simroad.detector.registry`). With the ``"improved"``
+        variant and ``morphology`` on, pixels the camera's calibration puts above the
+        horizon (``camera.ground_valid`` False) are never road: sky, tree tops and
+        building fronts cannot join the road component. Frames of another size are
+        left as they are; the ``"paper"`` variant ignores the camera (§III knows none).
+        """
+        if camera is None:
+            self.ground_ = None
+            return self
+        ground = getattr(camera, "ground_valid", None)
+        if not isinstance(ground, np.ndarray) or ground.ndim != 2 or ground.dtype != np.bool_:
+            raise SimroadError(
+                f"camera: expected a calibrated camera with a bool (H, W) ground_valid mask (env.camera), "
+                f"got {type(camera).__name__}."
+            )
+        self.ground_ = ground.copy()
+        return self
 
     # -------------------------------------------------------------- persistence
     def save(self, path: str | os.PathLike) -> None:

@@ -6,7 +6,10 @@
     True where it sees road;
 
 and optionally ``reset()`` (called at the start of every episode, for detectors with
-a memory of past frames) and the attributes ``name`` and ``version`` (strings, for
+a memory of past frames), ``set_camera(camera)`` (called once per episode with the
+calibrated :class:`~simroad.camera.PinholeCamera` the frames come from: its
+intrinsics, mounting, ``horizon_row``, ``ground_valid`` and ground map, for a detector
+that uses where road can be) and the attributes ``name`` and ``version`` (strings, for
 the records). The shipped :class:`~simroad.detector.RoadDetector` is the built-in
 ``paper`` detector.
 
@@ -314,6 +317,11 @@ class FilteredDetector:
         reset = getattr(self.detector, "reset", None)
         if callable(reset):
             reset()
+
+    def set_camera(self, camera: Any) -> None:
+        set_camera = getattr(self.detector, "set_camera", None)
+        if callable(set_camera):
+            set_camera(camera)
 
     def predict(self, image: np.ndarray) -> np.ndarray:
         return self.detector.predict(apply_filters(image, self.filters, variant=self.filter_variant))

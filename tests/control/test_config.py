@@ -108,3 +108,30 @@ def test_mask_driver_takes_camera_and_config_explicitly():
         MaskDriver(env, cfg)  # type: ignore[arg-type]
     with pytest.raises(SimroadError, match="control"):
         MaskDriver(env.camera, {"lane_width_m": 4.0})  # type: ignore[arg-type]
+
+
+def test_mask_driver_starts_the_detector_with_its_camera_every_episode():
+    calls = []
+
+    class Recorder:
+        def predict(self, image):
+            return np.ones(image.shape[:2], bool)
+
+        def reset(self):
+            calls.append("reset")
+
+        def set_camera(self, camera):
+            calls.append(camera)
+
+    env = RoadCamEnv(scenario="highway", longitudinal=True, traffic=False)
+    driver = make_driver("detector", env, detector=Recorder())
+    for seed in (0, 1):
+        env.reset(seed=seed)
+        driver.reset()
+    assert calls == ["reset", env.camera, "reset", env.camera]
+    # the paper's detector behind the filters hears of it too
+    from simroad.detector.registry import FilteredDetector
+
+    inner = Recorder()
+    make_driver("detector", env, detector=FilteredDetector(inner, ("shadow",))).reset()
+    assert calls[-1] is env.camera

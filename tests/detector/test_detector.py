@@ -207,3 +207,25 @@ def test_the_shipped_model_loads_with_its_stored_parameters():
     det = RoadDetector.load(default_model_path())
     assert det.filters == () and isinstance(det.filters, tuple)
     assert det.max_samples == 16000 and det.nonroad_weight == 2.0
+
+
+def test_a_known_camera_keeps_the_mask_below_its_horizon(small_detector, heldout_frames):
+    from simroad.camera import CameraConfig, PinholeCamera
+
+    image = heldout_frames[0][0].copy()
+    h, w = image.shape[:2]
+    camera = PinholeCamera(CameraConfig(width=w, height=h))
+    # a road-coloured column from the bottom centre up through the horizon to the top
+    road = image[h - 1, w // 2].copy()
+    image[:, w // 2 - 2 : w // 2 + 3] = road
+    det = copy.deepcopy(small_detector).set_params(filters=())
+    free = det.predict(image)
+    assert free[: h // 4, w // 2].any()  # the column joins the road component above the horizon
+    clipped = det.set_camera(camera).predict(image)
+    assert not clipped[~camera.ground_valid].any()
+    assert np.array_equal(clipped[camera.ground_valid], free[camera.ground_valid])
+    # the paper's variant knows no camera; forgetting it restores the old mask
+    assert np.array_equal(det.set_params(filter_variant="paper").predict(image), free)
+    assert np.array_equal(det.set_params(filter_variant="improved").set_camera(None).predict(image), free)
+    with pytest.raises(SimroadError, match="camera: expected a calibrated camera"):
+        det.set_camera("front")
