@@ -233,7 +233,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"detector": rows, "filter_masks": frows}))
     else:
-        print(format_table(rows, percent=("fnr", "fpr")))
+        print(format_table(rows, percent=("fnr", "fpr", "fnr_image", "fpr_image")))
         if frows:
             print()
             print(format_table(frows))

@@ -149,7 +149,7 @@ def _add_ablate(sub: Any) -> None:
     p = sub.add_parser(
         "ablate",
         help="run an ablation sweep (resumable) and write its report",
-        description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv, summary.md, summary.json, error_rates.png and safety.png are written.",
+        description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv/json/md (means with 95 % bootstrap or Clopper-Pearson intervals), paired.csv/json (filters vs none in the same worlds and seeds), error_rates.png, safety.png and paired.png are written.",
     )
     d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
     p.add_argument("--config", type=T.input_file(), help="a TOML file with the same names as keys (flags override it)")
@@ -213,7 +213,7 @@ def _add_ablate(sub: Any) -> None:
     p = sub.add_parser(
         "report",
         help="rebuild a sweep's tables and figures from results.jsonl",
-        description="Rebuild summary.csv, summary.md, summary.json, error_rates.png and safety.png from DIR/results.jsonl.",
+        description="Rebuild summary.csv, summary.md, summary.json, paired.csv, paired.json, error_rates.png, safety.png and paired.png from DIR/results.jsonl (the same file gives the same report, byte for byte).",
     )
     p.add_argument("dir", type=T.input_dir(), help="the sweep's output directory")
     p.set_defaults(func=commands.cmd_report)

@@ -16,8 +16,13 @@ detector_version          its ``version`` (``""`` when it has none)
 detector_spec             the spec it was built from (``EpisodeSpec.detector``;
                           ``""`` for the oracle and custom drivers)
 seed, steps               episode seed; steps actually driven
-fnr, fpr                  pooled over all evaluated pixels of the episode (KITTI style)
-fnr_frame_mean, ...       ``fpr_frame_mean``: means of the per-frame rates
+fnr, fpr                  pooled over the ground pixels of the episode (KITTI style:
+                          the episode's summed counts; see below)
+fnr_frame_mean, ...       ``fpr_frame_mean``: means over frames of each frame's own
+                          ground-pixel rate (a different number from the pooled one)
+fnr_image, fpr_image      pooled over every pixel of every frame (sky and all above
+                          the horizon are non-road): a mask that calls the sky road
+                          raises ``fpr_image`` but not ``fpr``
 iou, f1                   pooled intersection-over-union and F1 of the road class
 collided ... driving_score  safety metrics, see :mod:`simroad.metrics.safety`
 min_ttc_s                 ``null`` when no vehicle ahead was ever closing in
@@ -31,7 +36,8 @@ wall_s                    wall-clock seconds of the episode
 
 Mask metrics count the pixels that see the ground within the camera's range
 (``camera.ground_valid``: sky and the horizon band are excluded; other vehicles
-count as non-road).
+count as non-road), except ``fnr_image`` and ``fpr_image``, which count the whole
+frame (the ground truth is non-road wherever the camera does not see the ground).
 """
 
 from __future__ import annotations
@@ -66,7 +72,7 @@ __all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "pars
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
     "detector_spec", "seed", "steps",
-    "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "iou", "f1",
+    "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "fnr_image", "fpr_image", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
     "route_completion", "min_ttc_s", "driving_score",
@@ -190,7 +196,7 @@ def run_episode(
     pilot.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
-    masks = MaskScore()
+    masks, whole = MaskScore(), MaskScore()
     valid = env.camera.ground_valid
     recorder = None
     if video is not None:
@@ -204,6 +210,7 @@ def run_episode(
         pred = getattr(pilot, "last_mask", None)
         if pred is not None:
             masks.update(pred, info["road_mask"], valid=valid)
+            whole.update(pred, info["road_mask"])
         if recorder is not None:
             recorder.add(obs, info, pred)
         obs, _, terminated, truncated, info = env.step(action)
@@ -227,7 +234,7 @@ def run_episode(
         "seed": spec.seed,
         "steps": steps,
     }
-    record.update(_mask_record(masks))
+    record.update(_mask_record(masks, whole))
     record.update(safety.result())
     if not math.isfinite(record["min_ttc_s"]):
         record["min_ttc_s"] = None
@@ -267,10 +274,13 @@ def default_route_m(env, steps: int) -> float:
     return min(scenario_route_m(env), _ROUTE_SPEED_FRACTION * cruise * steps * env.dt)
 
 
-def _mask_record(masks) -> dict[str, float]:
-    r = masks.summary()
+def _mask_record(ground: MaskScore, whole: MaskScore) -> dict[str, float]:
+    """The record's mask keys: ``ground`` scored on the ground pixels, ``whole`` on
+    every pixel of the same frames."""
+    r, w = ground.summary(), whole.pooled()
     return {
         "fnr": float(r["fnr"]), "fpr": float(r["fpr"]),
         "fnr_frame_mean": float(r["mean_fnr"]), "fpr_frame_mean": float(r["mean_fpr"]),
+        "fnr_image": float(w["fnr"]), "fpr_image": float(w["fpr"]),
         "iou": float(r["iou"]), "f1": float(r["f1"]),
     }  # fmt: skip

@@ -162,8 +162,12 @@ def evaluate_frames(
     Returns
     -------
     rows : list of dict
-        One per setting: ``filters`` (text), ``frames``, pooled ``fnr``, ``fpr``,
-        ``iou``, ``f1`` (fractions).
+        One per setting: ``filters`` (text), ``frames``, and (fractions) ``fnr``,
+        ``fpr`` pooled over the valid pixels of the frames (rendered frames: the
+        ground below the horizon), ``fnr_image``, ``fpr_image`` pooled over every
+        pixel (rendered frames: the sky and all above the horizon count as non-road;
+        a photo's whole image is its labelled image, so there they equal ``fnr``,
+        ``fpr``), and ``iou``, ``f1`` on the valid pixels.
     filter_rows : list of dict
         One per filter with its own detection mask (shadow, light) and frames whose
         noise it detects: ``mask``, ``frames``, ``precision``, ``recall``, ``iou``,
@@ -173,15 +177,20 @@ def evaluate_frames(
     rows = []
     for filters in settings:
         det = factory(tuple(filters))
-        score = MaskScore()
+        score, whole = MaskScore(), MaskScore()
         for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
-            score.update(check_mask(det.predict(img), img.shape[:2], det), gt, valid=valid)
-        s = score.summary()
+            pred = check_mask(det.predict(img), img.shape[:2], det)
+            score.update(pred, gt, valid=valid)
+            whole.update(pred, gt)
+        s, w = score.summary(), whole.pooled()
         rows.append(
             {
                 "filters": format_filters(filters),
                 "frames": score.n_frames,
-                **{k: s[k] for k in ("fnr", "fpr", "iou", "f1")},
+                **{k: s[k] for k in ("fnr", "fpr")},
+                "fnr_image": w["fnr"],
+                "fpr_image": w["fpr"],
+                **{k: s[k] for k in ("iou", "f1")},
             }
         )
     all_filters = sorted({f for setting in settings for f in setting})

@@ -1,20 +1,29 @@
 """Build a sweep's report from ``results.jsonl`` alone, never changing it (``simroad report DIR``).
 
+Intervals are 95 % (see :mod:`simroad.experiments.stats`): percentile bootstrap of the
+mean over episodes (9999 resamples, seed 0) for every mean, exact Clopper-Pearson for
+the collision rate; they stay inside each quantity's range. One episode gives no
+interval (``_lo``/``_hi`` NaN, shown ``(n=1)``); equal values give ``lo = hi = mean``.
+The same ``results.jsonl`` gives the same files, byte for byte.
+
 ``summary.csv`` / ``summary.json``
-    One row per scenario x noise x severity x filters x driver: the number of
-    episodes, failed episodes, and mean with 95 % confidence half-width (Student t
-    over seeds; the ``*_ci95`` columns) of FNR, FPR, IoU, off-road fraction,
-    collision rate, lateral RMSE and driving score. The JSON file holds the same
-    rows as a list of objects (NaN where no episode had a finite value).
+    One row per scenario x noise x severity x filters x driver x detector: the number
+    of episodes, failed episodes, and for each column of :data:`METRICS` the mean (or
+    rate) with its interval (``<column>_lo``, ``<column>_hi``). ``fnr``/``fpr`` count
+    the ground pixels, ``fnr_image``/``fpr_image`` every pixel (sky = non-road);
+    ``fpr_image_minus_ground`` is the mean per-episode ``fpr_image - fpr`` (a mask
+    that calls the sky road makes it positive). The JSON file holds the same rows as
+    a list of objects (NaN where no episode had a finite value).
 ``summary.md``
-    The same table for people, under an at-a-glance table per noise and severity
-    (:func:`headline`), and a list of the lines of ``results.jsonl`` not used (if any).
-``error_rates.png``
-    The paper's Fig. 7a done properly: pooled-per-episode FNR and FPR per noise, one
-    bar per filter set, with 95 % confidence intervals.
-``safety.png``
-    Off-road fraction and driving score against severity, per noise: detector without
-    filters, with all filters, and the oracle.
+    An at-a-glance table per noise and severity (:func:`headline`), the paired
+    comparison of filters against none, and the per-cell table as ``mean [lo, hi]``;
+    then the lines of ``results.jsonl`` not used (if any).
+``paired.csv`` / ``paired.json``
+    :func:`~simroad.experiments.stats.paired_differences`: every filter set (and the
+    oracle) minus no filters in the same worlds and seeds, per detector, noise and
+    severity, pooled over scenarios (``scenario`` ``all``) and per scenario.
+``error_rates.png``, ``safety.png``, ``paired.png``
+    See :mod:`simroad.experiments.report_figures`.
 """
 
 from __future__ import annotations
@@ -31,51 +40,52 @@ from pathlib import Path
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.experiments.report_figures import error_rates_figure, paired_figure, safety_figure
 from simroad.experiments.results import RESULTS_NAME, BadLine, read_results
+from simroad.experiments.stats import (
+    ALL_FILTERS,
+    detectors,
+    filter_order,
+    mean_interval,
+    paired_differences,
+    proportion_interval,
+)
 
 __all__ = ["METRICS", "build_report", "headline", "summarise"]
 
-#: Summary column -> record key (collision rate is the mean of ``collided``).
+#: Summary column -> record key (collision rate is the rate of ``collided``).
 METRICS = {
     "fnr": "fnr",
     "fpr": "fpr",
+    "fnr_image": "fnr_image",
+    "fpr_image": "fpr_image",
     "iou": "iou",
     "offroad_fraction": "offroad_fraction",
     "collision_rate": "collided",
     "lateral_rmse_m": "lateral_rmse_m",
     "driving_score": "driving_score",
 }
+#: The derived column: per-episode whole-image FPR minus ground FPR.
+SKY_COLUMN = "fpr_image_minus_ground"
 _GROUP = ("scenario", "noise", "severity", "filters", "driver", "detector")
-_ALL = "shadow+rain_snow+light"
-
-
-def _detectors(records: list[dict]) -> list[str]:
-    """The detectors that drove (by name), in a fixed order, ``paper`` first."""
-    return sorted(
-        {r.get("detector", "") for r in records if r["driver"] == "detector"}, key=lambda d: (d != "paper", d)
-    )
+_FILES = (
+    "summary.csv", "summary.json", "summary.md", "paired.csv", "paired.json",
+    "error_rates.png", "safety.png", "paired.png",
+)  # fmt: skip
 
 
 def _setting(detector: str, filters: str, many: bool) -> str:
     """A perception setting's label: its filter set, and its detector when a sweep has several."""
-    short = "all" if filters == _ALL else filters
+    short = "all" if filters == ALL_FILTERS else filters
     return f"{detector}: {short}" if many else short
 
 
-def _mean_ci(values: list[float]) -> tuple[float, float]:
-    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=float)
-    if len(v) == 0:
-        return math.nan, math.nan
-    if len(v) == 1:
-        return float(v[0]), math.nan
-    from scipy import stats
-
-    half = float(stats.t.ppf(0.975, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v)))
-    return float(v.mean()), half
+def _sky_excess(r: dict) -> float:
+    return float(r["fpr_image"]) - float(r["fpr"])
 
 
 def summarise(records: list[dict]) -> list[dict]:
-    """Aggregate episode records into one row per grid cell group."""
+    """Aggregate episode records into one row per grid cell group (columns in the module docstring)."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in records:
         groups[tuple(r[k] for k in _GROUP)].append(r)
@@ -87,189 +97,155 @@ def summarise(records: list[dict]) -> list[dict]:
         row["episodes"] = len(recs)
         row["failed"] = len(recs) - len(ok)
         for col, src in METRICS.items():
-            mean, half = _mean_ci([float(r[src]) for r in ok])
-            row[col] = mean
-            row[f"{col}_ci95"] = half
+            values = [r[src] for r in ok]
+            row[col], row[f"{col}_lo"], row[f"{col}_hi"] = (
+                proportion_interval(values) if col == "collision_rate" else mean_interval(values)
+            )
+        row[SKY_COLUMN], row[f"{SKY_COLUMN}_lo"], row[f"{SKY_COLUMN}_hi"] = mean_interval(map(_sky_excess, ok))
         rows.append(row)
     return rows
 
 
 def _write_csv(rows: list[dict], path: Path) -> None:
     with open(path, "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]) if rows else [])
         w.writeheader()
         w.writerows(rows)
 
 
-def _fmt(mean: float, half: float, pct: bool) -> str:
+def _fmt(mean: float, lo: float, hi: float, scale: float = 1.0, digits: int = 3) -> str:
+    """``mean [lo, hi]`` times ``scale``; ``mean (n=1)`` without an interval; ``–`` without a mean."""
     if not math.isfinite(mean):
         return "–"
-    k = 100.0 if pct else 1.0
-    text = f"{mean * k:.2f}" if pct else f"{mean:.3f}"
-    return text + (
-        f" ± {half * k:.2f}" if pct and math.isfinite(half) else f" ± {half:.3f}" if math.isfinite(half) else ""
-    )
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"{mean * scale:.{digits}f} (n=1)"
+    return f"{mean * scale:.{digits}f} [{lo * scale:.{digits}f}, {hi * scale:.{digits}f}]"
 
 
-def _write_md(rows: list[dict], path: Path) -> None:
+#: Per-cell table: column -> (heading, scale, digits).
+_MD_COLUMNS = {
+    "fnr": ("FNR %", 100, 2),
+    "fpr": ("FPR %", 100, 2),
+    "fnr_image": ("whole-image FNR %", 100, 2),
+    "fpr_image": ("whole-image FPR %", 100, 2),
+    SKY_COLUMN: ("whole − ground FPR, pts", 100, 2),
+    "iou": ("IoU", 1, 3),
+    "offroad_fraction": ("off-road %", 100, 2),
+    "collision_rate": ("collision %", 100, 1),
+    "lateral_rmse_m": ("lat. RMSE m", 1, 3),
+    "driving_score": ("driving score", 1, 3),
+}
+
+
+def _cell(row: dict, col: str, scale: float, digits: int) -> str:
+    return _fmt(row[col], row[f"{col}_lo"], row[f"{col}_hi"], scale, digits)
+
+
+def _cell_table(rows: list[dict]) -> str:
     cols = ["scenario", "noise", "severity", "detector", "filters", "driver", "episodes"]
-    head = cols + ["FNR %", "FPR %", "IoU", "off-road %", "collision %", "lat. RMSE m", "driving score"]
+    head = cols + [h for h, _, _ in _MD_COLUMNS.values()]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in rows:
-        cells = [str(r[c]) for c in cols]
-        cells += [
-            _fmt(r["fnr"], r["fnr_ci95"], True),
-            _fmt(r["fpr"], r["fpr_ci95"], True),
-            _fmt(r["iou"], r["iou_ci95"], False),
-            _fmt(r["offroad_fraction"], r["offroad_fraction_ci95"], True),
-            _fmt(r["collision_rate"], r["collision_rate_ci95"], True),
-            _fmt(r["lateral_rmse_m"], r["lateral_rmse_m_ci95"], False),
-            _fmt(r["driving_score"], r["driving_score_ci95"], False),
-        ]
+        cells = [str(r[c]) for c in cols] + [_cell(r, c, s, d) for c, (_, s, d) in _MD_COLUMNS.items()]
         lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _paired_table(paired: list[dict]) -> str:
+    """The pooled (``scenario`` ``all``) paired rows as markdown."""
+    rows = [p for p in paired if p["scenario"] == "all"]
+    many = len({p["detector"] for p in rows}) > 1
+    head = (["detector"] if many else []) + ["noise", "severity", "setting − none", "pairs"]
+    head += ["Δ driving score", "Δ off-road, pts", "Δ FNR, pts", "Δ FPR, pts"]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for p in rows:
+        setting = "all filters" if p["setting"] == ALL_FILTERS else p["setting"]
+        cells = ([p["detector"]] if many else []) + [p["noise"], f"{p['severity']:g}", setting, str(p["pairs"])]
+        cells.append(_fmt(p["driving_score_diff"], p["driving_score_diff_lo"], p["driving_score_diff_hi"]))
+        for m in ("offroad_fraction", "fnr", "fpr"):
+            cells.append(_fmt(p[f"{m}_diff"], p[f"{m}_diff_lo"], p[f"{m}_diff_hi"], 100, 2))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _write_md(records: list[dict], rows: list[dict], paired: list[dict], path: Path) -> None:
     text = (
-        "# Ablation summary\n\nMean ± 95 % confidence half-width over seeds (Student t).\n\n" + "\n".join(lines) + "\n"
+        "# Ablation summary\n\n"
+        "Intervals are 95 %: percentile bootstrap of the mean over episodes (9999 resamples, "
+        "seed 0); Clopper-Pearson for collision rates; `(n=1)`: one episode, no interval. "
+        "FNR/FPR count the ground pixels, whole-image FNR/FPR every pixel (the sky is non-road).\n\n"
+        "## At a glance (means over scenarios and seeds)\n\n" + headline(records, paired=paired) + "\n\n"
+        "## Filters vs none, paired\n\n"
+        "Mean difference setting − none over pairs of episodes in the same world and seed "
+        "(scenario, seed), pooled over scenarios, with the bootstrap interval of the paired "
+        "difference (resampling pairs). Per scenario: `paired.csv`.\n\n" + _paired_table(paired) + "\n\n"
+        "## Per cell\n\nMean [95 % interval] over seeds.\n\n" + _cell_table(rows) + "\n"
     )
     path.write_text(text)
 
 
-def _write_md_with_headline(records: list[dict], rows: list[dict], path: Path) -> None:
-    _write_md(rows, path)
-    body = path.read_text().split("\n", 2)[2]
-    intro = (
-        "# Ablation summary\n\n## At a glance (means over scenarios and seeds)\n\n"
-        + headline(records)
-        + "\n\n## Per cell\n"
-    )
-    path.write_text(intro + body)
+def _mean(rs: list[dict], key: str) -> float:
+    v = [float(r[key]) for r in rs if math.isfinite(float(r[key]))]
+    return float(np.mean(v)) if v else math.nan
 
 
-def headline(records: list[dict]) -> str:
+def _pct(x: float, digits: int = 1) -> str:
+    return f"{100 * x:.{digits}f}" if math.isfinite(x) else "–"
+
+
+def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     """A compact markdown table: per noise and severity (pooled over scenarios and
-    seeds), FNR / FPR for every filter set, and off-road fraction and driving score for
-    no filters, all filters and the oracle."""
+    seeds), FNR / FPR for every filter set; off-road fraction and driving score for
+    no filters, all filters and the oracle; the worst whole-image minus ground FPR
+    over the detector's settings (points); and the paired all-filters − none
+    driving-score difference with its interval, per detector (``paired`` as
+    :func:`~simroad.experiments.stats.paired_differences` gives it; computed when None)."""
     ok = [r for r in records if not r.get("error")]
+    paired = paired_differences(ok) if paired is None else paired
     cells = sorted({(r["noise"], r["severity"]) for r in ok}, key=lambda c: (c[0] != "clear", c[0], c[1]))
-    filters = sorted(
-        {r["filters"] for r in ok if r["driver"] == "detector"},
-        key=lambda f: (f != "none", f == _ALL, f),
-    )
-    dets = _detectors(ok)
+    filters = filter_order(r["filters"] for r in ok if r["driver"] == "detector")
+    dets = detectors(ok)
     many = len(dets) > 1
     settings = [(d, f) for d in dets for f in filters]
     head = ["noise", "severity"] + [f"FNR / FPR % ({_setting(d, f, many)})" for d, f in settings]
-    pairs = [(d, f) for d in dets for f in ("none", _ALL)]
+    pairs = [(d, f) for d in dets for f in ("none", ALL_FILTERS)]
     names = " / ".join([_setting(d, f, many) for d, f in pairs] + ["oracle"])
-    head += [f"off-road % ({names})", f"driving score ({names})"]
+    head += [f"off-road % ({names})", f"driving score ({names})", "max whole − ground FPR, pts"]
+    head += [f"driving score all − none, paired{f' ({d})' if many else ''}" for d in dets]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for noise, sev in cells:
         rs = [r for r in ok if r["noise"] == noise and r["severity"] == sev]
-        row = [noise, f"{sev:g}"]
-        for d, f in settings:
-            det = [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
-            row.append(
-                f"{100 * np.mean([r['fnr'] for r in det]):.1f} / {100 * np.mean([r['fpr'] for r in det]):.1f}"
-                if det
-                else "–"
-            )
-        groups = [
-            [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
-            for d, f in pairs
-        ] + [[r for r in rs if r["driver"] == "oracle"]]
-        row.append(" / ".join(f"{100 * np.mean([r['offroad_fraction'] for r in g]):.1f}" if g else "–" for g in groups))
-        row.append(" / ".join(f"{np.mean([r['driving_score'] for r in g]):.2f}" if g else "–" for g in groups))
+        row = [noise, f"{sev:g}", *_headline_cells(rs, settings, pairs)]
+        for d in dets:
+            want = (d, noise, sev, "all", ALL_FILTERS)
+            p = next((p for p in paired if tuple(p[k] for k in _PAIRED_ID) == want), None)
+            diff = (p["driving_score_diff"], p["driving_score_diff_lo"], p["driving_score_diff_hi"]) if p else None
+            row.append(f"{_fmt(*diff)} ({p['pairs']} pairs)" if p and diff else "–")
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines)
 
 
-def _error_rates_figure(records: list[dict], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    det = [r for r in records if r["driver"] == "detector" and not r.get("error")]
-    noises = sorted({r["noise"] for r in det}, key=lambda n: (n != "clear", n))
-    filters = sorted({r["filters"] for r in det}, key=lambda f: (f != "none", f == _ALL, f))
-    dets = _detectors(det)
-    settings = [(d, f) for d in dets for f in filters]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 3.8), sharey=False)
-    width = 0.8 / max(1, len(settings))
-    for ax, metric in zip(axes, ("fnr", "fpr")):
-        for j, (d, f) in enumerate(settings):
-            stats = [
-                _mean_ci(
-                    [
-                        100 * r[metric]
-                        for r in det
-                        if r["noise"] == n and r["filters"] == f and r.get("detector", "") == d
-                    ]
-                )
-                for n in noises
-            ]
-            means = [m for m, _ in stats]
-            errs = [h if math.isfinite(h) else 0.0 for _, h in stats]
-            xs = np.arange(len(noises)) + (j - (len(settings) - 1) / 2) * width
-            label = f"filters: {f}" if len(dets) == 1 else f"{d}, filters: {f}"
-            ax.bar(xs, means, width, yerr=errs, capsize=3, label=label)
-        ax.set_xticks(np.arange(len(noises)), noises, rotation=20)
-        ax.set_ylabel(f"{metric.upper()} (%)")
-        ax.set_title(f"{metric.upper()} per noise (mean, 95 % CI)")
-        ax.grid(axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+_PAIRED_ID = ("detector", "noise", "severity", "scenario", "setting")
 
 
-def _safety_figure(records: list[dict], path: Path) -> None:
-    import matplotlib
+def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list[tuple[str, str]]) -> list[str]:
+    """One noise x severity of :func:`headline`: FNR / FPR per setting, off-road and
+    driving score of ``pairs`` and the oracle, the worst whole-image minus ground FPR."""
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    def pick(d: str, f: str) -> list[dict]:
+        return [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
 
-    ok = [r for r in records if not r.get("error")]
-    noises = sorted({r["noise"] for r in ok if r["noise"] != "clear"}) or ["clear"]
-    clear = [r for r in ok if r["noise"] == "clear"]
-    dets = _detectors(ok)
-
-    def chooser(d: str, f: str) -> Callable[[dict], bool]:
-        return lambda r: r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f
-
-    lines = [
-        (f"{'detector' if len(dets) == 1 else d}, {label}", chooser(d, f))
-        for d in dets
-        for f, label in (("none", "no filters"), (_ALL, "all filters"))
-    ] + [("oracle", lambda r: r["driver"] == "oracle")]
-    fig, axes = plt.subplots(2, len(noises), figsize=(3.2 * len(noises), 5.5), squeeze=False)
-    for col, noise in enumerate(noises):
-        rs = [r for r in ok if r["noise"] == noise] + clear
-        sevs = sorted({r["severity"] for r in rs})
-        for row, (metric, label) in enumerate(
-            (("offroad_fraction", "off-road fraction"), ("driving_score", "driving score"))
-        ):
-            ax = axes[row][col]
-            for name, pick in lines:
-                stats = [_mean_ci([r[metric] for r in rs if pick(r) and r["severity"] == s]) for s in sevs]
-                if all(not math.isfinite(m) for m, _ in stats):
-                    continue
-                ax.errorbar(
-                    sevs,
-                    [m for m, _ in stats],
-                    yerr=[h if math.isfinite(h) else 0 for _, h in stats],
-                    marker="o",
-                    capsize=3,
-                    label=name,
-                )
-            ax.set_xlabel("severity")
-            ax.set_ylabel(label)
-            ax.grid(alpha=0.3)
-            if row == 0:
-                ax.set_title(noise)
-    axes[0][0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    cells = []
+    for d, f in settings:
+        det = pick(d, f)
+        cells.append(f"{_pct(_mean(det, 'fnr'))} / {_pct(_mean(det, 'fpr'))}" if det else "–")
+    groups = [pick(d, f) for d, f in pairs] + [[r for r in rs if r["driver"] == "oracle"]]
+    cells.append(" / ".join(_pct(_mean(g, "offroad_fraction")) if g else "–" for g in groups))
+    cells.append(" / ".join(f"{_mean(g, 'driving_score'):.2f}" if g else "–" for g in groups))
+    sky = [_mean(det, "fpr_image") - _mean(det, "fpr") for det in (pick(d, f) for d, f in settings) if det]
+    sky = [x for x in sky if math.isfinite(x)]
+    cells.append(_pct(max(sky), 2) if sky else "–")
+    return cells
 
 
 def _write_bad_lines(bad: list[BadLine], path: Path) -> None:
@@ -299,8 +275,8 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
     -------
     dict of str to Path
         File name -> path of each file written: ``summary.csv``, ``summary.json``,
-        ``summary.md``, ``error_rates.png`` and ``safety.png`` (see the module
-        docstring for their contents).
+        ``summary.md``, ``paired.csv``, ``paired.json``, ``error_rates.png``,
+        ``safety.png`` and ``paired.png`` (see the module docstring for their contents).
     """
     d = Path(directory)
     path = d / RESULTS_NAME
@@ -313,12 +289,16 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
     if not records:
         raise SimroadError(f"dir: {str(path)!r} holds no finished episode yet ({len(bad)} line(s) not usable).")
     rows = summarise(records)
-    out = {name: d / name for name in ("summary.csv", "summary.json", "summary.md", "error_rates.png", "safety.png")}
+    paired = paired_differences(records)
+    out = {name: d / name for name in _FILES}
     _write_csv(rows, out["summary.csv"])
     out["summary.json"].write_text(json.dumps(rows, indent=1, default=str))
-    _write_md_with_headline(records, rows, out["summary.md"])
+    _write_csv(paired, out["paired.csv"])
+    out["paired.json"].write_text(json.dumps(paired, indent=1, default=str))
+    _write_md(records, rows, paired, out["summary.md"])
     if bad:
         _write_bad_lines(bad, out["summary.md"])
-    _error_rates_figure(records, out["error_rates.png"])
-    _safety_figure(records, out["safety.png"])
+    error_rates_figure(records, out["error_rates.png"])
+    safety_figure(records, out["safety.png"])
+    paired_figure(paired, out["paired.png"])
     return out

@@ -10,9 +10,10 @@ import pytest
 
 from simroad import SimroadError
 from simroad.cli.main import main
-from simroad.envs import SCENARIO_NAMES
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
+from simroad.envs import SCENARIO_NAMES, RoadCamEnv
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, _mask_record, parse_filters, run_episode
 from simroad.experiments.gate import check_requirements, parse_requirement
+from simroad.metrics.mask import MaskScore
 from simroad.noise import NOISE_NAMES
 
 SHORT = 6
@@ -51,6 +52,57 @@ def test_episode_ends_when_the_route_is_complete():
 def test_oracle_has_perfect_mask_metrics():
     rec = run_episode(EpisodeSpec(scenario="racetrack", driver="oracle", steps=10))
     assert rec["fnr"] == 0.0 and rec["fpr"] == 0.0 and rec["iou"] == 1.0
+    assert rec["fnr_image"] == 0.0 and rec["fpr_image"] == 0.0
+
+
+def test_mask_record_by_hand_ground_and_whole_image():
+    # 3x2 frame; the top row is sky (not ground). Truth: road at (1,0), (2,0), (2,1).
+    valid = np.array([[0, 0], [1, 1], [1, 1]], bool)
+    gt = np.array([[0, 0], [1, 0], [1, 1]], bool)
+    pred = np.array([[1, 1], [1, 0], [0, 1]], bool)  # the sky called road, (2,0) missed
+    ground, whole = MaskScore(), MaskScore()
+    ground.update(pred, gt, valid=valid)
+    whole.update(pred, gt)
+    pred2 = np.array([[0, 0], [1, 1], [1, 1]], bool)  # a second frame: ground all road
+    ground.update(pred2, gt, valid=valid)
+    whole.update(pred2, gt)
+    rec = _mask_record(ground, whole)
+    # ground pixels: frame 1 tp 2 fn 1 fp 0 tn 1; frame 2 tp 3 fn 0 fp 1 tn 0
+    assert rec["fnr"] == pytest.approx(1 / 6) and rec["fpr"] == pytest.approx(1 / 2)
+    # per-frame means: FNR (1/3 + 0) / 2, FPR (0/1 + 1/1) / 2
+    assert rec["fnr_frame_mean"] == pytest.approx(1 / 6) and rec["fpr_frame_mean"] == pytest.approx(1 / 2)
+    # whole image adds the two sky pixels of each frame: frame 1 both called road (fp 2),
+    # frame 2 none (tn 2): fp 1 + 2 = 3, tn 1 + 2 = 3 over the two frames
+    assert rec["fnr_image"] == pytest.approx(1 / 6) and rec["fpr_image"] == pytest.approx(3 / 6)
+    assert rec["iou"] == pytest.approx(5 / 7)  # ground: tp 5, fp 1, fn 1
+
+
+@pytest.mark.parametrize("scenario", SCENARIO_NAMES)
+def test_ground_truth_is_non_road_where_the_camera_sees_no_ground(scenario):
+    env = RoadCamEnv(scenario=scenario, noise="snow", severity=0.8)
+    _, info = env.reset(seed=2)
+    for _ in range(3):
+        assert not info["road_mask"][~env.camera.ground_valid].any()
+        _, _, _, _, info = env.step(np.zeros(env.action_space.shape, dtype=np.float32))
+    env.close()
+
+
+class _SkyDetector:
+    """Calls every pixel that is not ground road, and nothing else."""
+
+    def __init__(self, ground_valid):
+        self.mask = ~ground_valid
+
+    def predict(self, image):
+        return self.mask.copy()
+
+
+def test_a_mask_that_calls_the_sky_road_costs_whole_image_fpr_only():
+    spec = EpisodeSpec(scenario="highway", steps=4, traffic=False, route_m=1e4)
+    sky = _SkyDetector(RoadCamEnv(scenario="highway").camera.ground_valid)
+    rec = run_episode(spec, detector=sky)
+    assert rec["fpr"] == 0.0 and rec["fnr"] == 1.0  # on the ground it calls nothing
+    assert rec["fnr_image"] == 1.0 and rec["fpr_image"] > 0.2  # the sky is a large share of a frame
 
 
 def test_custom_callable_driver():

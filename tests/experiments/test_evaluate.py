@@ -27,10 +27,11 @@ def shadow_frames():
     )  # fmt: skip
 
 
-def _pooled(det, frames) -> tuple[float, float]:
+def _pooled(det, frames, *, whole: bool = False) -> tuple[float, float]:
     tp = fn = fp = tn = 0
     for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
         pred = det.predict(img)
+        valid = np.ones_like(valid) if whole else valid
         tp += int((pred & gt & valid).sum())
         fn += int((~pred & gt & valid).sum())
         fp += int((pred & ~gt & valid).sum())
@@ -44,7 +45,11 @@ def test_rows_are_the_pooled_rates_counted_by_hand(shadow_frames):
     for row, filters in zip(rows, [(), ("shadow",)]):
         fnr, fpr = _pooled(RoadDetector.pretrained(filters=filters), shadow_frames)
         assert row["fnr"] == pytest.approx(fnr, abs=1e-12) and row["fpr"] == pytest.approx(fpr, abs=1e-12)
+        fnr_image, fpr_image = _pooled(RoadDetector.pretrained(filters=filters), shadow_frames, whole=True)
+        assert row["fnr_image"] == pytest.approx(fnr_image, abs=1e-12)
+        assert row["fpr_image"] == pytest.approx(fpr_image, abs=1e-12)
         assert 0.0 <= row["iou"] <= 1.0 and 0.0 <= row["f1"] <= 1.0
+    assert not all(v.all() for v in shadow_frames.valid)  # the sky is outside the ground pixels
     # the shadow filter's own mask is scored against the ground-truth shadow mask
     assert [r["mask"] for r in frows] == ["shadow filter vs GT shadow"]
     assert frows[0]["frames"] == 2 and all(0.0 <= frows[0][k] <= 1.0 for k in ("precision", "recall", "iou", "f1"))
@@ -76,6 +81,8 @@ def test_image_folder_and_model_file_give_the_same_rows(shadow_frames, tmp_path)
     rows, _ = evaluate_detector(["none", "all"], images=images, masks=masks, model=model)
     want, _ = evaluate_frames(folder, [(), ("shadow", "rain_snow", "light")])
     assert rows == want and rows[1]["filters"] == "shadow+rain_snow+light"
+    # a photo's whole image is its labelled image: the whole-image rates are the rates
+    assert all((r["fnr_image"], r["fpr_image"]) == (r["fnr"], r["fpr"]) for r in rows)
 
 
 def test_model_factory_reuses_the_loaded_setting_and_sets_others(tmp_path):

@@ -1,4 +1,4 @@
-"""Sweep reports: Student-t intervals worked by hand, and every file's content checked."""
+"""Sweep reports: every file's content checked against the records, intervals in range, paired rows."""
 
 from __future__ import annotations
 
@@ -7,39 +7,13 @@ import json
 import math
 
 import cv2
-import numpy as np
 import pytest
-from scipy import stats
 
 from simroad import SimroadError
 from simroad.experiments.ablate import ResultStore
 from simroad.experiments.episode import RECORD_KEYS
-from simroad.experiments.report import METRICS, _mean_ci, build_report, summarise
-
-# t_{0.975} quantiles from a printed Student-t table (two-sided 95 %).
-T_TABLE = {1: 12.706, 2: 4.303, 4: 2.776}
-
-
-def test_mean_ci_by_hand_five_values():
-    # 1..5: mean 3, sample sd sqrt(2.5), n 5, 4 degrees of freedom
-    mean, half = _mean_ci([1.0, 2.0, 3.0, 4.0, 5.0])
-    assert mean == 3.0
-    assert half == pytest.approx(T_TABLE[4] * math.sqrt(2.5) / math.sqrt(5), rel=2e-4)  # 1.9632...
-    assert half == pytest.approx(stats.t.ppf(0.975, 4) * np.std([1, 2, 3, 4, 5], ddof=1) / math.sqrt(5), rel=1e-12)
-
-
-def test_mean_ci_by_hand_two_values():
-    # 0 and 1: mean 0.5, sd 1/sqrt(2), n 2 -> half-width 12.706 * 0.7071 / 1.4142 = 6.353
-    mean, half = _mean_ci([0.0, 1.0])
-    assert mean == 0.5 and half == pytest.approx(T_TABLE[1] / 2, rel=1e-4)
-
-
-def test_mean_ci_drops_missing_values_and_handles_tiny_samples():
-    mean, half = _mean_ci([0.1, None, math.nan, 0.2, math.inf, 0.3])
-    assert mean == pytest.approx(0.2) and half == pytest.approx(T_TABLE[2] * 0.1 / math.sqrt(3), rel=1e-4)
-    mean, half = _mean_ci([0.7])
-    assert mean == 0.7 and math.isnan(half)  # one seed: no interval
-    assert all(math.isnan(v) for v in _mean_ci([]))
+from simroad.experiments.report import METRICS, SKY_COLUMN, build_report, summarise
+from simroad.experiments.stats import mean_interval, proportion_interval
 
 
 def _record(**kw):
@@ -61,8 +35,11 @@ def sweep(tmp_path):
     store = ResultStore(tmp_path)
     records = []
     for seed, fnr in FNR.items():
-        records.append(_record(seed=seed, fnr=fnr, fpr=fnr / 10, offroad_fraction=0.1 * seed, driving_score=1 - fnr))
-        records.append(_record(seed=seed, filters="shadow+rain_snow+light", fnr=fnr / 2, fpr=0.01, driving_score=0.9))
+        # no filters: sky costs 0.1, 0.2, 0.3 points of whole-image FPR; all filters: 4 points
+        records.append(_record(seed=seed, fnr=fnr, fpr=fnr / 10, fpr_image=fnr / 10 + 0.001 * (seed + 1),
+                               offroad_fraction=0.1 * seed, driving_score=1 - fnr))  # fmt: skip
+        records.append(_record(seed=seed, filters="shadow+rain_snow+light", fnr=fnr / 2, fpr=0.01, fpr_image=0.05,
+                               driving_score=0.9))  # fmt: skip
         records.append(_record(seed=seed, driver="oracle", fnr=0.0, driving_score=1.0, collided=seed == 2))
         records.append(_record(seed=seed, noise="clear", severity=0.0, fnr=0.05, driving_score=1.0))
     failed = _record(seed=3, fnr=math.nan, driving_score=math.nan, steps=0, error="RuntimeError: boom")
@@ -71,23 +48,44 @@ def sweep(tmp_path):
     return tmp_path, records
 
 
-def test_summary_rows_equal_the_hand_computed_means_and_intervals(sweep):
+def _row(rows, **kw):
+    return next(r for r in rows if all(r[k] == v for k, v in kw.items()))
+
+
+def test_summary_rows_hold_each_mean_with_its_interval(sweep):
     _, records = sweep
     rows = summarise([*records, _record(seed=3, fnr=math.nan, error="RuntimeError: boom")])
-    row = next(r for r in rows if r["noise"] == "rain" and r["filters"] == "none" and r["driver"] == "detector")
+    row = _row(rows, noise="rain", filters="none", driver="detector")
     assert (row["episodes"], row["failed"]) == (4, 1)
-    assert row["fnr"] == pytest.approx(0.2)
-    assert row["fnr_ci95"] == pytest.approx(T_TABLE[2] * 0.1 / math.sqrt(3), rel=1e-4)  # 0.2484
-    assert row["offroad_fraction"] == pytest.approx(0.1)
-    oracle = next(r for r in rows if r["driver"] == "oracle")
-    assert oracle["collision_rate"] == pytest.approx(1 / 3)  # `collided` averaged
-    assert set(METRICS) | {f"{m}_ci95" for m in METRICS} <= set(row)
+    # three seeds: the percentile bootstrap of 0.1, 0.2, 0.3 is [0.1, 0.3] (tests/experiments/test_stats.py)
+    assert (row["fnr"], row["fnr_lo"], row["fnr_hi"]) == pytest.approx((0.2, 0.1, 0.3))
+    assert (row["offroad_fraction"], row["offroad_fraction_lo"]) == pytest.approx((0.1, 0.0))
+    assert (row[SKY_COLUMN], row[f"{SKY_COLUMN}_lo"], row[f"{SKY_COLUMN}_hi"]) == pytest.approx((0.002, 0.001, 0.003))
+    assert row["fpr_image"] == pytest.approx(0.022)
+    oracle = _row(rows, driver="oracle")
+    cp = proportion_interval([False, False, True])
+    assert (oracle["collision_rate"], oracle["collision_rate_lo"], oracle["collision_rate_hi"]) == cp
+    assert cp[0] == pytest.approx(1 / 3) and 0.0 < cp[1] < 1 / 3 < cp[2] < 1.0
+    assert oracle["fnr_image"] == oracle["fpr_image"] == 0.0
+    for col in METRICS:
+        assert {col, f"{col}_lo", f"{col}_hi"} <= set(row)
+    bounded = ("fnr", "fpr", "fnr_image", "fpr_image", "iou", "offroad_fraction", "collision_rate", "driving_score")
+    for r in rows:
+        for col in bounded:
+            lo, hi = r[f"{col}_lo"], r[f"{col}_hi"]
+            assert 0.0 <= lo <= r[col] <= hi <= 1.0, (r, col)
+        want = mean_interval(x["driving_score"] for x in records if all(
+            x[k] == r[k] for k in ("scenario", "noise", "severity", "filters", "driver", "detector")))  # fmt: skip
+        assert (r["driving_score"], r["driving_score_lo"], r["driving_score_hi"]) == want
 
 
 def test_build_report_writes_every_file_with_the_summary_values(sweep):
     d, _ = sweep
     paths = build_report(d)
-    assert sorted(paths) == ["error_rates.png", "safety.png", "summary.csv", "summary.json", "summary.md"]
+    assert sorted(paths) == [
+        "error_rates.png", "paired.csv", "paired.json", "paired.png", "safety.png",
+        "summary.csv", "summary.json", "summary.md",
+    ]  # fmt: skip
     assert all(p.parent == d and p.is_file() for p in paths.values())
     expected = summarise([json.loads(line) for line in (d / "results.jsonl").read_text().splitlines()])
 
@@ -96,27 +94,50 @@ def test_build_report_writes_every_file_with_the_summary_values(sweep):
     assert len(rows) == len(expected) == 4  # rain x {none, all, oracle} + clear x none
     for got, want in zip(rows, expected):
         assert got["filters"] == want["filters"] and int(got["episodes"]) == want["episodes"]
-        for col in ("fnr", "fnr_ci95", "driving_score", "collision_rate"):
+        for col in ("fnr", "fnr_lo", "fnr_hi", "fpr_image", SKY_COLUMN, "driving_score_hi", "collision_rate_lo"):
             assert float(got[col]) == pytest.approx(want[col], nan_ok=True)
 
     as_json = json.loads(paths["summary.json"].read_text())
     assert [r["filters"] for r in as_json] == [r["filters"] for r in expected]
-    rain_none = next(
-        r for r in as_json if r["noise"] == "rain" and r["filters"] == "none" and r["driver"] == "detector"
-    )
+    rain_none = _row(as_json, noise="rain", filters="none", driver="detector")
     assert rain_none["fnr"] == pytest.approx(0.2) and rain_none["failed"] == 1
 
     md = paths["summary.md"].read_text()
     assert md.startswith("# Ablation summary") and "## At a glance" in md and "## Per cell" in md
-    # per-cell FNR in percent with its half-width, and the at-a-glance FNR / FPR of no filters
-    assert "| 20.00 ± 24.84 |" in md
+    # per-cell FNR in percent with its interval; whole-image minus ground FPR; collision rate
+    assert "| 20.00 [10.00, 30.00] |" in md and "| 0.20 [0.10, 0.30] |" in md
+    assert f"| {100 * proportion_interval([0, 0, 1])[0]:.1f} [" in md
+    # at a glance: FNR / FPR of no filters and all filters, the worst sky cost (4 points),
+    # and the paired all - none driving score: pairs 0.9 - {0.9, 0.8, 0.7}
     assert "| rain | 0.7 | 20.0 / 2.0 | 10.0 / 1.0 |" in md
+    assert "| 4.00 | 0.100 [0.000, 0.200] (3 pairs) |" in md
+    # the paired section: all filters and the oracle against none
+    section = md.split("## Filters vs none, paired")[1].split("## Per cell")[0]
+    assert "| rain | 0.7 | all filters | 3 | 0.100 [0.000, 0.200] | -10.00 [-20.00, 0.00] |" in section
+    assert "| rain | 0.7 | oracle | 3 | 0.200 [0.100, 0.300] |" in section
 
-    for name, size in (("error_rates.png", (990, 342)), ("safety.png", (288, 495))):
+    with open(paths["paired.csv"], newline="") as fh:
+        paired = list(csv.DictReader(fh))
+    assert [(p["scenario"], p["setting"]) for p in paired] == [
+        ("all", "shadow+rain_snow+light"), ("racetrack", "shadow+rain_snow+light"),
+        ("all", "oracle"), ("racetrack", "oracle"),
+    ]  # fmt: skip
+    assert json.loads(paths["paired.json"].read_text())[0]["pairs"] == 3
+
+    for name, size in (("error_rates.png", (1350, 342)), ("safety.png", (288, 495)), ("paired.png", (540, 324))):
         assert paths[name].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
         img = cv2.imread(str(paths[name]))
         assert img is not None and (img.shape[1], img.shape[0]) == size  # figsize x dpi 90
         assert img.std() > 10  # something is drawn
+
+
+def test_the_same_results_give_the_same_report_byte_for_byte(sweep, tmp_path_factory):
+    d, _ = sweep
+    other = tmp_path_factory.mktemp("again")
+    (other / "results.jsonl").write_bytes((d / "results.jsonl").read_bytes())
+    first, second = build_report(d), build_report(other)
+    for name, path in first.items():
+        assert path.read_bytes() == second[name].read_bytes(), name
 
 
 def test_report_of_a_directory_without_results_says_what_to_run(tmp_path):

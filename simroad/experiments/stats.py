@@ -1,0 +1,242 @@
+"""Intervals and paired comparisons for a sweep's report.
+
+Means of bounded per-episode quantities (driving score, IoU, FNR, FPR, off-road
+fraction, lateral RMSE) get a **percentile bootstrap** interval of the mean
+(:func:`scipy.stats.bootstrap`, ``method="percentile"``, :data:`N_RESAMPLES`
+resamples from ``numpy.random.default_rng(SEED)``). Every resampled mean lies between
+the smallest and the largest value, so the interval never leaves the quantity's range
+(an off-road fraction's interval stays in [0, 1]). The values are sorted first, so
+the interval depends on the values only, not on the order the episodes finished in;
+with the fixed seed the same values give the same interval, bit for bit.
+
+Rates of yes/no events (collisions) get the exact binomial **Clopper-Pearson**
+interval (:meth:`scipy.stats.binomtest(...).proportion_ci <scipy.stats.binomtest>`),
+which lies in [0, 1] by construction and exists for one episode too.
+
+Degenerate samples, said plainly rather than hidden:
+
+- no value: mean, low and high are NaN;
+- one value: the mean is the value, low and high are NaN (one episode gives no
+  interval; the report shows ``(n=1)``);
+- all values equal: low = high = the mean (every resample has that mean; the seeds
+  showed no spread, which is not a proof that there is none).
+
+With few episodes the percentile bootstrap is too narrow: it cannot show more spread
+than the episodes had (three values give about their minimum and maximum). More
+seeds, not another formula, resolve a difference.
+
+**Paired comparisons** (:func:`paired_differences`): two settings driven in the same
+world with the same seed (same scenario, noise, severity, seed and detector) are a
+pair; the interval of the mean paired difference bootstraps the pairs.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from simroad._validation import SimroadError, check_in_range, check_int_in_range
+
+__all__ = [
+    "ALL_FILTERS",
+    "CONFIDENCE",
+    "N_RESAMPLES",
+    "PAIRED_METRICS",
+    "SEED",
+    "detectors",
+    "filter_order",
+    "mean_interval",
+    "paired_differences",
+    "proportion_interval",
+]
+
+#: Bootstrap resamples per interval (scipy's default).
+N_RESAMPLES = 9999
+#: Two-sided confidence level of every interval.
+CONFIDENCE = 0.95
+#: Seed of the bootstrap's generator (fixed: the same results give the same report).
+SEED = 0
+#: Record keys compared in pairs (differences ``setting - baseline``).
+PAIRED_METRICS = ("driving_score", "offroad_fraction", "fnr", "fpr")
+#: The filter set with every filter on, as records spell it.
+ALL_FILTERS = "shadow+rain_snow+light"
+#: A pair's world: records that match on these keys (and the comparison's group) are paired.
+_PAIR_KEY = ("scenario", "seed")
+
+
+def _finite(values: Iterable[Any]) -> np.ndarray:
+    return np.asarray(
+        [float(v) for v in values if v is not None and not isinstance(v, str) and math.isfinite(float(v))], dtype=float
+    )
+
+
+def _generator_keyword() -> str:
+    """scipy >= 1.15 names the bootstrap's generator ``rng``; older versions ``random_state``."""
+    from scipy import stats
+
+    return "rng" if "rng" in inspect.signature(stats.bootstrap).parameters else "random_state"
+
+
+def mean_interval(
+    values: Iterable[Any], *, confidence: float = CONFIDENCE, n_resamples: int = N_RESAMPLES, seed: int = SEED
+) -> tuple[float, float, float]:
+    """Mean of ``values`` and the percentile-bootstrap interval of the mean.
+
+    Parameters
+    ----------
+    values : iterable of float
+        Per-episode values; None, NaN and infinities are left out.
+    confidence : float
+        Two-sided confidence level in (0, 1).
+    n_resamples : int
+        Bootstrap resamples.
+    seed : int
+        Seed of ``numpy.random.default_rng`` drawing the resamples.
+
+    Returns
+    -------
+    mean, low, high : float
+        See the module docstring for no value (all NaN), one value (low and high
+        NaN) and equal values (low = high = mean).
+    """
+    check_in_range("confidence", confidence, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
+    check_int_in_range("n_resamples", n_resamples, 1, 10**7)
+    check_int_in_range("seed", seed, 0, 2**63 - 1)
+    v = np.sort(_finite(values))
+    if len(v) == 0:
+        return math.nan, math.nan, math.nan
+    mean = float(v.mean())
+    if len(v) == 1:
+        return mean, math.nan, math.nan
+    if v[0] == v[-1]:
+        return mean, mean, mean
+    from scipy import stats
+
+    res = stats.bootstrap(
+        (v,),
+        np.mean,
+        n_resamples=n_resamples,
+        confidence_level=confidence,
+        method="percentile",
+        vectorized=True,
+        **{_generator_keyword(): np.random.default_rng(seed)},
+    )
+    lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    # the resampled means lie in [min, max]; clip only the last-bit rounding of the mean
+    return mean, max(lo, float(v[0])), min(hi, float(v[-1]))
+
+
+def proportion_interval(flags: Iterable[Any], *, confidence: float = CONFIDENCE) -> tuple[float, float, float]:
+    """Rate of ``flags`` (e.g. ``collided`` per episode) and its Clopper-Pearson interval.
+
+    Parameters
+    ----------
+    flags : iterable of bool or 0/1
+        One per episode; None and NaN are left out.
+    confidence : float
+        Two-sided confidence level in (0, 1).
+
+    Returns
+    -------
+    rate, low, high : float
+        ``k / n`` and the exact binomial interval; all NaN without a flag.
+    """
+    check_in_range("confidence", confidence, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
+    v = _finite(flags)
+    if len(v) and not np.isin(v, (0.0, 1.0)).all():
+        bad = next(x for x in v if x not in (0.0, 1.0))
+        raise SimroadError(f"flags: expected true/false (or 0/1) per episode, got {bad!r}.")
+    if len(v) == 0:
+        return math.nan, math.nan, math.nan
+    from scipy import stats
+
+    k, n = int(v.sum()), len(v)
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
+    return k / n, float(ci.low), float(ci.high)
+
+
+def detectors(records: Sequence[dict]) -> list[str]:
+    """The detectors that drove (by name), in a fixed order, ``paper`` first."""
+    return sorted(
+        {r.get("detector", "") for r in records if r["driver"] == "detector"}, key=lambda d: (d != "paper", d)
+    )
+
+
+def filter_order(filters: Iterable[str]) -> list[str]:
+    """Filter sets in report order: ``none`` first, then single sets, all filters last."""
+    return sorted(set(filters), key=lambda f: (f != "none", f == ALL_FILTERS, f))
+
+
+def _by_world(records: Iterable[dict]) -> dict[tuple, dict]:
+    """Records by their world (scenario, seed): the first of each."""
+    out: dict[tuple, dict] = {}
+    for r in records:
+        out.setdefault(tuple(r[k] for k in _PAIR_KEY), r)
+    return out
+
+
+def _paired_row(a: dict[tuple, dict], b: dict[tuple, dict], metrics: Sequence[str], **label: Any) -> dict:
+    worlds = sorted(set(a) & set(b), key=lambda w: tuple(map(str, w)))
+    row: dict[str, Any] = {**label, "pairs": len(worlds)}
+    for m in metrics:
+        diffs = [float(a[w][m]) - float(b[w][m]) for w in worlds]
+        mean, lo, hi = mean_interval(diffs)
+        row[f"{m}_diff"], row[f"{m}_diff_lo"], row[f"{m}_diff_hi"] = mean, lo, hi
+    return row
+
+
+def paired_differences(records: Sequence[dict], *, metrics: Sequence[str] = PAIRED_METRICS) -> list[dict]:
+    """Each filter set (and the oracle) against no filters, in pairs of the same world.
+
+    For each detector, noise and severity, and each filter set ``f`` other than
+    ``none``: the records of ``f`` and of ``none`` with the same scenario and seed
+    are a pair; the row holds the number of pairs and, per metric, the mean of the
+    paired differences ``f - none`` with its bootstrap interval (resampling pairs;
+    :func:`mean_interval`: NaN with fewer than two pairs). The oracle against the
+    detector without filters comes last (``setting`` ``oracle``). One row pools
+    every scenario (``scenario`` ``all``), then one row per scenario. Failed
+    episodes (``error`` set) are left out; a metric's difference uses the pairs
+    where both values are finite.
+
+    Parameters
+    ----------
+    records : sequence of dict
+        Episode records (rows of ``results.jsonl``).
+    metrics : sequence of str
+        Record keys to compare.
+
+    Returns
+    -------
+    list of dict
+        Keys ``detector``, ``noise``, ``severity``, ``scenario``, ``setting`` (a
+        filter set or ``oracle``), ``baseline`` (``none``), ``pairs``, and for each
+        metric ``<metric>_diff``, ``<metric>_diff_lo``, ``<metric>_diff_hi``.
+    """
+    ok = [r for r in records if not r.get("error")]
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in ok:
+        groups[(r["noise"], r["severity"])].append(r)
+    rows = []
+    for noise, severity in sorted(groups, key=lambda c: (c[0] != "clear", c[0], c[1])):
+        rs = groups[(noise, severity)]
+        oracle = [r for r in rs if r["driver"] == "oracle"]
+        for det in detectors(rs):
+            mine = [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == det]
+            none = [r for r in mine if r["filters"] == "none"]
+            if not none:
+                continue
+            settings = [(f, [r for r in mine if r["filters"] == f]) for f in filter_order(r["filters"] for r in mine)]
+            settings = [(f, s) for f, s in settings if f != "none"] + ([("oracle", oracle)] if oracle else [])
+            scenarios = ["all"] + sorted({r["scenario"] for r in mine})
+            for setting, recs in settings:
+                for scenario in scenarios:
+                    pick = (lambda r: True) if scenario == "all" else (lambda r, s=scenario: r["scenario"] == s)
+                    label = dict(detector=det, noise=noise, severity=severity, scenario=scenario, setting=setting)
+                    a, b = _by_world(filter(pick, recs)), _by_world(filter(pick, none))
+                    rows.append(_paired_row(a, b, metrics, **label, baseline="none"))
+    return rows
