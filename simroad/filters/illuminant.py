@@ -53,7 +53,7 @@ _LIMIT = 5.0  # |log-ratio| accepted in options (a factor of ~150)
 def _finite_pair(name: str, value: object) -> tuple[float, float]:
     try:
         a, b = value  # type: ignore[misc]
-        pair = (float(a), float(b))
+        pair = (float(a), float(b))  # type: ignore[has-type]
     except (TypeError, ValueError):
         raise SimroadError(f"{name}: expected two numbers (log B/R, log G/R), got {value!r}.") from None
     if not all(math.isfinite(x) and abs(x) <= _LIMIT for x in pair):
@@ -68,7 +68,7 @@ def _box(value: object) -> tuple[tuple[float, float], tuple[float, float]]:
         raise SimroadError(
             f"chromaticity: expected ((log B/R low, high), (log G/R low, high)), got {value!r}."
         ) from None
-    box = (_finite_pair("chromaticity", b), _finite_pair("chromaticity", g))
+    box = (_finite_pair("chromaticity", b), _finite_pair("chromaticity", g))  # type: ignore[has-type]
     if any(lo > hi for lo, hi in box):
         raise SimroadError(f"chromaticity: each (low, high) needs low <= high, got {value!r}.")
     return box
