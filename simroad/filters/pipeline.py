@@ -183,7 +183,7 @@ FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
                 rank=0,
                 paper=(_step(remove_rain_snow),),
                 improved=(
-                    _step(remove_haze),
+                    _step(remove_haze, tolerance=0.045),
                     _step(remove_rain_snow, radius=3, tolerance=0.07, achromatic=True, protect=5),
                 ),
                 weathers=("rain", "snow"),

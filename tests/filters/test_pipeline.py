@@ -72,7 +72,7 @@ def test_step_settings_default_to_the_public_functions_defaults():
     defaults = {k: p.default for k, p in inspect.signature(remove_rain_snow).parameters.items() if k != "image"}
     assert dict(particles.options) == {**defaults, **particles.settings}
     assert dict(particles.settings) == {"radius": 3, "tolerance": 0.07, "achromatic": True, "protect": 5}
-    assert haze.function is remove_haze and not haze.settings
+    assert haze.function is remove_haze and dict(haze.settings) == {"tolerance": 0.045}
     with pytest.raises(TypeError):
         particles.options["radius"] = 1  # type: ignore[index]
 
