@@ -34,7 +34,9 @@ _MAX_LEVELS = 8
 
 @njit(cache=True, nogil=True)
 def decode(frame, table, out):
-    """``out = table[frame]``: an 8-bit (H, W, 3) frame to float32 through a 256-entry table."""
+    """``out = table[frame]`` element by element (C-contiguous arrays of one shape): an
+    8-bit (H, W, 3) frame to float32 through a 256-entry table, or 16-bit linear light
+    back to 8-bit codes (:func:`simroad.camera._ground_blur.box_blur_texture`)."""
     src, dst = frame.reshape(-1), out.reshape(-1)
     for i in range(src.size):
         dst[i] = table[src[i]]

@@ -18,6 +18,8 @@ import functools
 import cv2
 import numpy as np
 
+from simroad.camera._blur_kernel import decode
+
 __all__ = ["blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
 
 
@@ -93,4 +95,6 @@ def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.
     lin = cv2.LUT(rgba, to_linear)
     kernel, anchor = segment_kernel(shift_texels)
     out: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
-    return np.take(to_srgb, out)
+    encoded = np.empty(out.shape, np.uint8)
+    decode(out, to_srgb, encoded)  # np.take(to_srgb, out), without its index conversion
+    return encoded
