@@ -8,7 +8,7 @@ STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
 help:
 	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
-	@echo "make paper    the paper's experiment at full size (486 episodes, the longest job; runs/paper)"
+	@echo "make paper    the paper's experiment in closed loop, paired seeds on evaluation worlds (648 episodes, the longest job; runs/paper)"
 	@echo "make test     set up .venv with test extras; lint (ruff), types (mypy), then the whole test suite"
 	@echo "make test-fast  lint, types and the tests not marked slow (under a minute; the edit loop)"
 	@echo "make lint     ruff check, ruff format --check and mypy only"
