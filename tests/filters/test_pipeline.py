@@ -68,13 +68,14 @@ def test_the_improved_shadow_filter_balances_the_light_first():
 
 
 def test_step_settings_default_to_the_public_functions_defaults():
-    (haze, particles) = FILTER_REGISTRY["rain_snow"].steps("improved")
-    defaults = {k: p.default for k, p in inspect.signature(remove_rain_snow).parameters.items() if k != "image"}
-    assert dict(particles.options) == {**defaults, **particles.settings}
-    assert dict(particles.settings) == {"radius": 3, "tolerance": 0.07, "achromatic": True, "protect": 5}
+    (haze,) = FILTER_REGISTRY["rain_snow"].steps("improved")
+    defaults = {k: p.default for k, p in inspect.signature(remove_haze).parameters.items() if k != "image"}
     assert haze.function is remove_haze and dict(haze.settings) == {"tolerance": 0.045}
+    assert dict(haze.options) == {**defaults, "tolerance": 0.045}
+    (particles,) = FILTER_REGISTRY["rain_snow"].steps("paper")
+    assert particles.function is remove_rain_snow and not particles.settings
     with pytest.raises(TypeError):
-        particles.options["radius"] = 1  # type: ignore[index]
+        haze.options["tolerance"] = 1  # type: ignore[index]
 
 
 def _every_step():
