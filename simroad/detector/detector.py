@@ -33,6 +33,7 @@ from simroad._validation import (
     normalize_rng,
 )
 from simroad.detector.features import N_FEATURES, _features_f
+from simroad.detector.growth import GROW_TOLERANCE, _as_uint8, _grow
 from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
@@ -251,7 +252,12 @@ class RoadDetector(BaseEstimator):
             ground = getattr(self, "ground_", None)
             if ground is not None and variant == "improved" and ground.shape == mask.shape:
                 mask &= ground  # nothing above the horizon is road, nor joins the road
-            mask = _fill_holes(_ego_component(mask))
+            else:
+                ground = None
+            mask = _ego_component(mask)
+            if variant == "improved" and "light" in filters:  # not §III: the road through a glare lobe
+                mask = _ego_component(mask | _grow(_as_uint8(image), mask, ground, GROW_TOLERANCE, 2))
+            mask = _fill_holes(mask)
         return mask
 
     def set_camera(self, camera: Any) -> RoadDetector:
