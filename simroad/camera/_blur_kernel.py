@@ -34,7 +34,9 @@ _MAX_LEVELS = 8
 
 @njit(cache=True, nogil=True)
 def decode(frame, table, out):
-    """``out = table[frame]``: an 8-bit (H, W, 3) frame to float32 through a 256-entry table."""
+    """``out = table[frame]`` element by element (C-contiguous arrays of one shape): an
+    8-bit (H, W, 3) frame to float32 through a 256-entry table, or 16-bit linear light
+    back to 8-bit codes (:func:`simroad.camera._ground_blur.box_blur_texture`)."""
     src, dst = frame.reshape(-1), out.reshape(-1)
     for i in range(src.size):
         dst[i] = table[src[i]]
@@ -96,17 +98,17 @@ def _stays_on_face(face_id, fid, x, y, lx, ly):
     h, w = face_id.shape
     wm, hm = np.float32(w - 1), np.float32(h - 1)
     zero = np.float32(0.0)
-    # The end's four texels (clamped like the taps; int() of a non-negative float is
-    # its floor).
-    x0 = int(min(max(np.float32(x) + lx, zero), wm))
-    y0 = int(min(max(np.float32(y) + ly, zero), hm))
-    x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+    # The end's four texels (clamped like the taps; the integer part of a
+    # non-negative float is its floor). Unsigned indices: no wrap-around test.
+    x0 = np.uint64(min(max(np.float32(x) + lx, zero), wm))
+    y0 = np.uint64(min(max(np.float32(y) + ly, zero), hm))
+    x1, y1 = min(x0 + np.uint64(1), np.uint64(w - 1)), min(y0 + np.uint64(1), np.uint64(h - 1))
     if face_id[y0, x0] != fid or face_id[y1, x1] != fid or face_id[y0, x1] != fid or face_id[y1, x0] != fid:
         return False
     for k in range(1, 4):  # anything standing in between
         t = np.float32(0.25 * k)
-        qx = int(min(max(np.float32(x) + t * lx + np.float32(0.5), zero), wm))
-        qy = int(min(max(np.float32(y) + t * ly + np.float32(0.5), zero), hm))
+        qx = np.uint64(min(max(np.float32(x) + t * lx + np.float32(0.5), zero), wm))
+        qy = np.uint64(min(max(np.float32(y) + t * ly + np.float32(0.5), zero), hm))
         if face_id[qy, qx] != fid:
             return False
     return True
@@ -156,9 +158,9 @@ def _level_row(img, y, j, xs, ns, fxs, fys, k0, k1, tmp):
         x = xs[k]
         qx = min(max(np.float32(x) + step * fxs[k], np.float32(0.0)), wm)
         qy = min(max(yf + step * fys[k], np.float32(0.0)), hm)
-        x0, y0 = int(qx), int(qy)
+        x0, y0 = np.uint64(qx), np.uint64(qy)  # unsigned: no wrap-around test per index
         ax, ay = qx - np.float32(x0), qy - np.float32(y0)
-        x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+        x1, y1 = min(x0 + np.uint64(1), np.uint64(w - 1)), min(y0 + np.uint64(1), np.uint64(h - 1))
         i = k - k0
         for c in range(3):
             top = img[y0, x0, c] + ax * (img[y0, x1, c] - img[y0, x0, c])

@@ -18,7 +18,9 @@ import functools
 import cv2
 import numpy as np
 
-__all__ = ["blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
+from simroad.camera._blur_kernel import decode
+
+__all__ = ["RowBlur", "blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
 
 
 @functools.cache
@@ -40,6 +42,36 @@ def row_blur_px(forward_m: np.ndarray, rows: np.ndarray, *, horizon_row: float, 
     with np.errstate(invalid="ignore"):
         s = np.where(np.isfinite(x), travel_m / np.maximum(x - travel_m, travel_m), 0.0)
     return s * np.hypot(half_width_px, rows - horizon_row)
+
+
+class RowBlur:
+    """:func:`row_blur_px` and :func:`blur_start_row` of one camera, what does not
+    depend on the travel computed once (the same operations per row: the same values).
+
+    Parameters
+    ----------
+    forward_m : ndarray (H,)
+        Each row's forward ground distance in m, NaN where the row sees no ground.
+    horizon_row, half_width_px : float
+        As for :func:`row_blur_px`.
+    first_ground_row : int
+        As for :func:`blur_start_row`.
+    """
+
+    def __init__(self, forward_m: np.ndarray, *, horizon_row: float, half_width_px: float, first_ground_row: int):
+        x = np.asarray(forward_m, dtype=np.float64)
+        reach = np.hypot(half_width_px, np.arange(len(x), dtype=np.float64) - horizon_row)
+        self._rows = np.flatnonzero(np.isfinite(x))
+        self._x, self._reach = x[self._rows], reach[self._rows]
+        self._first = int(first_ground_row)
+        self._length = np.zeros(len(x))
+
+    def __call__(self, travel_m: float) -> tuple[int, np.ndarray]:
+        """:func:`blur_start_row` and :func:`row_blur_px` (a buffer reused by the next
+        call) for ``travel_m``."""
+        length = self._length
+        length[self._rows] = travel_m / np.maximum(self._x - travel_m, travel_m) * self._reach
+        return blur_start_row(length, self._first), length
 
 
 def blur_start_row(length_px: np.ndarray, first_ground_row: int, threshold_px: float = 0.5) -> int:
@@ -93,4 +125,6 @@ def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.
     lin = cv2.LUT(rgba, to_linear)
     kernel, anchor = segment_kernel(shift_texels)
     out: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
-    return np.take(to_srgb, out)
+    encoded = np.empty(out.shape, np.uint8)
+    decode(out, to_srgb, encoded)  # np.take(to_srgb, out), without its index conversion
+    return encoded

@@ -67,6 +67,25 @@ def face_colours(mesh: Mesh) -> np.ndarray:
     return linear_to_srgb(row)[0][: len(lin)]
 
 
+_COLOURS: OrderedDict[tuple[str, str, int, bytes], np.ndarray] = OrderedDict()
+
+
+def _face_colours_f32(mesh: Mesh) -> np.ndarray:
+    """:func:`face_colours` as float32, remembered by the faces' albedos and normals'
+    z (the vehicles' mesh is new every frame, its colours seldom are)."""
+    a, nz = mesh.albedo, np.ascontiguousarray(mesh.normal[:, 2])
+    key = (a.dtype.str, nz.dtype.str, len(mesh), a.tobytes() + nz.tobytes())
+    hit = _COLOURS.get(key)
+    if hit is None:
+        hit = _COLOURS[key] = face_colours(mesh).astype(np.float32)
+        hit.flags.writeable = False
+        if len(_COLOURS) > 4 * _CACHE:
+            _COLOURS.popitem(last=False)
+    else:
+        _COLOURS.move_to_end(key)
+    return hit
+
+
 class _Prepared:
     """Camera-independent arrays of one mesh, in the kernels' types."""
 
@@ -79,7 +98,7 @@ class _Prepared:
         self.offset, self.centroid, self.decal, self.sphere = _raster.mesh_data(
             self.verts, self.counts, self.normal, self.solid
         )
-        self.colour = face_colours(mesh).astype(np.float32)
+        self.colour = _face_colours_f32(mesh)
         self.n_solids = len(self.sphere)
 
 

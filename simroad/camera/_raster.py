@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["contact_shadows", "face_table", "mesh_data", "rasterise", "shade"]
+__all__ = ["contact_shadows", "face_table", "footprints", "mesh_data", "rasterise", "shade"]
 
 #: fast-math flags: no ``nnan``/``ninf`` (the sky's depth is inf)
 _FAST = {"nsz", "arcp", "contract", "afn"}
@@ -317,6 +317,35 @@ def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: n
                 crow[x, 2] = colour[u, 2]
                 mrow[x] = material_of[u]
                 frow[x] = remap[u]
+
+
+@njit(cache=True)
+def footprints(v, cos, sin, reach, x, y, h, ch, sh):  # pragma: no cover - compiled
+    """Footprints of vehicles ``v`` (N, 5): world centre, heading, half length and half
+    width (m), with ``cos``/``sin`` of their headings, seen from the ego at world
+    ``(x, y)`` with heading ``h`` (``ch``, ``sh``: its cosine and sine). Returns their world corners grown by ``reach`` (m)
+    (N, 4, 3; front-left, front-right, rear-right, rear-left; z = 0) and their ego-frame
+    boxes (N, 5): centre, heading, half length, half width. The float64 operations
+    of the numpy expressions they replace, in their order (no fast-math): the same
+    bits."""
+    N = v.shape[0]
+    corners = np.zeros((N, 4, 3))
+    boxes = np.empty((N, 5))
+    for i in range(N):
+        c, s = cos[i], sin[i]
+        hl, hw = v[i, 3] + reach, v[i, 4] + reach
+        for j in range(4):
+            a = 1.0 if j < 2 else -1.0
+            b = 1.0 if j == 1 or j == 2 else -1.0
+            corners[i, j, 0] = v[i, 0] + a * hl * c + b * hw * s
+            corners[i, j, 1] = v[i, 1] + a * hl * s - b * hw * c
+        dx, dy = v[i, 0] - x, v[i, 1] - y
+        boxes[i, 0] = ch * dx + sh * dy
+        boxes[i, 1] = -sh * dx + ch * dy
+        boxes[i, 2] = v[i, 2] - h
+        boxes[i, 3] = v[i, 3]
+        boxes[i, 4] = v[i, 4]
+    return corners, boxes
 
 
 @njit(cache=True, error_model="numpy")

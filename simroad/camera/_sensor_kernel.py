@@ -75,7 +75,7 @@ def _fill_row_impl(src, decode, buf):
 @njit(cache=True, nogil=True)
 def _lookup_row(dn: np.ndarray, table: np.ndarray, out: np.ndarray) -> None:
     for i in range(dn.size):
-        out[i] = table[dn[i]]
+        out[i] = table[np.uint64(dn[i])]  # dn >= 0: unsigned, no wrap-around test
 
 
 @njit(cache=True, nogil=True)

@@ -168,8 +168,13 @@ class CameraRenderer:
         # column from the principal point: the ground's motion blur per row.
         centre = min(max(int(round(camera.K[0, 2])), 0), c.width - 1)
         with np.errstate(invalid="ignore"):
-            self._forward_m = np.where(camera.ground_valid[:, centre], camera.depth[:, centre], np.nan)
-        self._half_width_px = max(float(camera.K[0, 2]), c.width - float(camera.K[0, 2]))
+            forward_m = np.where(camera.ground_valid[:, centre], camera.depth[:, centre], np.nan)
+        self._row_blur = _ground_blur.RowBlur(
+            forward_m,
+            horizon_row=float(camera.horizon_row),
+            half_width_px=max(float(camera.K[0, 2]), c.width - float(camera.K[0, 2])),
+            first_ground_row=self._r0,
+        )
         # Footprint of the visible ground in the ego frame, for the window request.
         g = camera._ego_ground[camera.ground_valid]
         hull = cv2.convexHull(g.astype(np.float32)).reshape(-1, 2)
@@ -289,16 +294,8 @@ class CameraRenderer:
     def _ground_blur(self, motion_m: float) -> tuple[int, np.ndarray] | None:
         """First row whose ground blurs by half a pixel or more, and each row's longest
         ground blur in pixels; None when no row does."""
-        c = self.camera.config
-        length = _ground_blur.row_blur_px(
-            self._forward_m,
-            np.arange(c.height, dtype=np.float64),
-            horizon_row=float(self.camera.horizon_row),
-            half_width_px=self._half_width_px,
-            travel_m=motion_m,
-        )
-        start = _ground_blur.blur_start_row(length, self._r0)
-        return (start, length) if start < c.height else None
+        start, length = self._row_blur(motion_m)
+        return (start, length) if start < self.camera.config.height else None
 
     def _warp_blurred(
         self,
@@ -362,16 +359,10 @@ class CameraRenderer:
         k = cam.K
         x, y, h = cam.pose
         v = np.array([[b.x, b.y, b.heading, b.length / 2, b.width / 2] for b in vehicles])
-        c, s = np.cos(v[:, 2]), np.sin(v[:, 2])
-        hl, hw = v[:, 3] + _AO_REACH_M, v[:, 4] + _AO_REACH_M
-        corners = np.zeros((len(v), 4, 3))
-        for j, (a, b) in enumerate(((1, -1), (1, 1), (-1, 1), (-1, -1))):
-            corners[:, j, 0] = v[:, 0] + a * hl * c + b * hw * s
-            corners[:, j, 1] = v[:, 1] + a * hl * s - b * hw * c
+        corners, boxes = _raster.footprints(
+            v, np.cos(v[:, 2]), np.sin(v[:, 2]), _AO_REACH_M, x, y, h, math.cos(h), math.sin(h)
+        )
         M, o = self._painter._affine()
-        ch, sh = math.cos(h), math.sin(h)
-        dx, dy = v[:, 0] - x, v[:, 1] - y
-        boxes = np.column_stack([ch * dx + sh * dy, -sh * dx + ch * dy, v[:, 2] - h, v[:, 3], v[:, 4]])
         cam_v = np.array([k[0, 0], k[1, 1], k[0, 2], k[1, 2], NEAR_M])
         _raster.contact_shadows(
             rgb, self._ground, self._gx, self._gy, boxes, corners @ M + o, cam_v, AO_STRENGTH, _AO_INNER_M, _AO_REACH_M

@@ -15,6 +15,7 @@ from simroad.filters.glare import remove_glare
 from simroad.filters.guided import box_mean, guided_filter
 from simroad.filters.haze import remove_haze
 from simroad.filters.highlights import dark_channel, remove_highlights, specular_to_diffuse
+from simroad.filters.illuminant import remove_colour_cast
 from simroad.filters.pipeline import (
     FILTER_NAMES,
     FILTER_REGISTRY,
@@ -46,6 +47,7 @@ __all__ = [
     "guided_filter",
     "ndi",
     "parse_filters",
+    "remove_colour_cast",
     "remove_glare",
     "remove_haze",
     "remove_highlights",

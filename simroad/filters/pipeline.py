@@ -33,6 +33,7 @@ from simroad.filters._common import FILTER_DTYPES, FilterResult, Planes, clip_pl
 from simroad.filters.glare import _glare_planes, remove_glare
 from simroad.filters.haze import _haze_planes, remove_haze
 from simroad.filters.highlights import _highlights_planes, remove_highlights
+from simroad.filters.illuminant import _colour_cast_planes, remove_colour_cast
 from simroad.filters.rain_snow import _rain_snow_planes, remove_rain_snow
 from simroad.filters.shadow import _shadows_planes, remove_shadows
 from simroad.noise import NOISE_NAMES
@@ -54,6 +55,7 @@ __all__ = [
 
 #: Public filter -> its core on float32 planes (same keyword options, no defaults).
 _CORES: dict[Callable[..., FilterResult], Callable[..., tuple[Planes, np.ndarray]]] = {
+    remove_colour_cast: _colour_cast_planes,
     remove_glare: _glare_planes,
     remove_haze: _haze_planes,
     remove_highlights: _highlights_planes,
@@ -162,19 +164,26 @@ FILTER_VARIANTS = ("improved", "paper")
 #: Improved variants (``simroad filter-effect`` measures each, README): the rain/snow
 #: filter first undoes the haze of the falling particles row by row, then removes the
 #: particles' excess from all channels alike and keeps lane paint; the light filter
-#: subtracts the sun's additive lobe instead of applying eq. 27. The shadow filter is
-#: the same in both.
+#: subtracts the sun's additive lobe instead of applying eq. 27; the shadow filter
+#: first undoes a colour cast of the light beyond clear weather's (the sun and the blue
+#: sky instead of the overcast the detector learnt under), then removes the shadows.
 FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
     {
         spec.name: spec
         for spec in (
-            FilterSpec("shadow", rank=2, paper=(_step(remove_shadows),), weathers=("shadow",)),
+            FilterSpec(
+                "shadow",
+                rank=2,
+                paper=(_step(remove_shadows),),
+                improved=(_step(remove_colour_cast), _step(remove_shadows)),
+                weathers=("shadow",),
+            ),
             FilterSpec(
                 "rain_snow",
                 rank=0,
                 paper=(_step(remove_rain_snow),),
                 improved=(
-                    _step(remove_haze),
+                    _step(remove_haze, tolerance=0.045),
                     _step(remove_rain_snow, radius=3, tolerance=0.07, achromatic=True, protect=5),
                 ),
                 weathers=("rain", "snow"),

@@ -14,7 +14,7 @@ from highway_env.road.road import RoadNetwork
 from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, SensorParams, WorldRaster
 from simroad.camera._blur_kernel import radial_blur, radial_blur_depth
-from simroad.camera._ground_blur import box_blur_texture, segment_kernel
+from simroad.camera._ground_blur import RowBlur, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
 from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale
 from simroad.noise.radiometry import srgb_to_linear
 
@@ -78,6 +78,17 @@ def test_segment_kernel_by_hand():
         assert k.sum() == pytest.approx(1.0, abs=1e-6)
         assert (k * (cols - ax)).sum() == pytest.approx(shift[0] / 2, abs=1e-3)
         assert (k * (rows - ay)).sum() == pytest.approx(shift[1] / 2, abs=1e-3)
+
+
+def test_row_blur_is_row_blur_px_to_the_bit():
+    # The renderer's per-camera RowBlur precomputes what does not depend on the travel.
+    forward = np.array([np.nan, np.nan, 80.0, 30.0, 12.0, 6.0, 3.5, 2.1])
+    rows = np.arange(len(forward), dtype=np.float64)
+    rb = RowBlur(forward, horizon_row=1.3, half_width_px=160.0, first_ground_row=2)
+    for travel in (0.0, 0.01, 0.14, 0.5, 3.0):
+        ref = row_blur_px(forward, rows, horizon_row=1.3, half_width_px=160.0, travel_m=travel)
+        start, length = rb(travel)
+        assert np.array_equal(length, ref) and start == blur_start_row(ref, 2)
 
 
 def test_texture_blur_averages_linear_light():

@@ -59,9 +59,11 @@ def test_old_import_locations_are_the_same_objects():
     assert simroad.experiments.episode.format_filters is format_filters
 
 
-def test_the_shadow_filter_is_one_pipeline_for_both_variants():
+def test_the_improved_shadow_filter_balances_the_light_first():
     spec = FILTER_REGISTRY["shadow"]
-    assert spec.steps("paper") is spec.steps("improved")
+    assert [s.function.__name__ for s in spec.steps("paper")] == ["remove_shadows"]
+    assert [s.function.__name__ for s in spec.steps("improved")] == ["remove_colour_cast", "remove_shadows"]
+    assert spec.steps("improved")[1] == spec.steps("paper")[0]
     assert FILTER_REGISTRY["light"].steps("paper") != FILTER_REGISTRY["light"].steps("improved")
 
 
@@ -70,7 +72,7 @@ def test_step_settings_default_to_the_public_functions_defaults():
     defaults = {k: p.default for k, p in inspect.signature(remove_rain_snow).parameters.items() if k != "image"}
     assert dict(particles.options) == {**defaults, **particles.settings}
     assert dict(particles.settings) == {"radius": 3, "tolerance": 0.07, "achromatic": True, "protect": 5}
-    assert haze.function is remove_haze and not haze.settings
+    assert haze.function is remove_haze and dict(haze.settings) == {"tolerance": 0.045}
     with pytest.raises(TypeError):
         particles.options["radius"] = 1  # type: ignore[index]
 
