@@ -41,8 +41,8 @@ from simroad.detector.pixels import (
     IMAGE_DTYPES,
     MIN_IMAGE_SIZE,
     check_training_set,
-    filtered_rgb,
-    filtered_uint8_planes,
+    filtered_rgb_masks,
+    filtered_uint8_planes_masks,
     sample_pixels,
 )
 from simroad.detector.svm import KernelExpansion
@@ -245,9 +245,11 @@ class RoadDetector(BaseEstimator):
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
         if exact:
-            mask = self._decide_rgb(filtered_rgb(image, filters, variant)).reshape(image.shape[:2])
+            rgb, acted = filtered_rgb_masks(image, filters, variant)
+            mask = self._decide_rgb(rgb).reshape(image.shape[:2])
         else:
-            mask = self.lut_.lookup(filtered_uint8_planes(image, filters, variant))
+            planes, acted = filtered_uint8_planes_masks(image, filters, variant)
+            mask = self.lut_.lookup(planes)
         if check_bool("morphology", self.morphology):
             ground = getattr(self, "ground_", None)
             if ground is not None and variant == "improved" and ground.shape == mask.shape:
@@ -255,8 +257,10 @@ class RoadDetector(BaseEstimator):
             else:
                 ground = None
             mask = _ego_component(mask)
-            if variant == "improved" and "light" in filters:  # not §III: the road through a glare lobe
-                mask = _ego_component(mask | _grow(_as_uint8(image), mask, ground, GROW_TOLERANCE, 2))
+            lobe = acted.get("light") if variant == "improved" else None
+            if lobe is not None and lobe.any():  # not §III: the road through the glare lobe the filter removed
+                seeds = mask | lobe if ground is None else mask | (lobe & ground)  # the ego stands on road
+                mask = _ego_component(mask | _grow(_as_uint8(image), seeds, ground, GROW_TOLERANCE, 2))
             mask = _fill_holes(mask)
         return mask
 

@@ -32,7 +32,7 @@ __all__ = ["remove_glare"]
 
 _SCALE = 4  # the lobe is estimated on an image this many times smaller
 _MIN_TINT = 0.2  # smallest relative channel of the sun's colour (Rayleigh at 5 degrees: ~0.45)
-_STRONG = 95.0  # percentile of the lobe's lift that estimates its colour
+_FLANK = (0.3, 0.7)  # the lobe's flank, as fractions of its peak lift, gives its colour
 _MAX_GAIN = 4.0  # largest re-exposure, in linear gain
 
 
@@ -50,15 +50,62 @@ def _encode(y: np.ndarray, shoulder: float) -> np.ndarray:
     return np.where(z <= 0.0031308, z * np.float32(12.92), hi).astype(np.float32)
 
 
-def _lobe(lin: Planes, fine: int, wide: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """Lobe amount ``B`` (H, W), its colour ``t`` (3,) with max 1, and the floor's level.
+_TAU_RGB = np.array([0.05, 0.10, 0.23])  # Rayleigh optical depth of the clear atmosphere at ~620, 550, 460 nm
+_AIR_MASS = (1.0, 38.0)  # sun overhead .. on the horizon (Kasten & Young)
+_MIN_WARM = 0.6  # the lobe's R - B lift (99th percentile) over the floor's level: a warm sun
+_MIN_CONCENTRATION = 0.42  # share of the lift's column profile within +-3/80 of the width of its peak
+_MIN_ROWS = 0.78  # share of the lit rows whose largest lift lies in that band
+_MIN_SYMMETRY = 0.3  # median ratio of the lift 5/80 of the width left and right of the peak (a bell, not a step)
+_CLIP_SPREAD = 6.0 / 255.0  # a clipped pixel: channels within this of each other ...
+_CLIP_DEPTH = 8.0 / 255.0  # ... and within this of the frame's brightest lobe pixel
+
+
+def sun_tint(air_mass: float) -> np.ndarray:
+    """Relative RGB of direct sunlight after Rayleigh extinction along ``air_mass``, max 1."""
+    c = np.exp(-_TAU_RGB * air_mass)
+    return (c / c.max()).astype(np.float32)
+
+
+def _fit_tint(lift_rgb: np.ndarray) -> np.ndarray:
+    """The sun colour on the Rayleigh curve closest to a lift's colour (least squares in log ratios)."""
+    rgb = np.maximum(np.asarray(lift_rgb, np.float64), 1e-6)
+    logs = np.log(rgb[1:] / rgb[0])  # log G/R, log B/R
+    d = _TAU_RGB[1:] - _TAU_RGB[0]
+    m = float(-(d @ logs) / (d @ d))
+    return sun_tint(min(max(m, _AIR_MASS[0]), _AIR_MASS[1]))
+
+
+def _find_lobe(least: np.ndarray, warm: np.ndarray, level: float, min_lift: float) -> int | None:
+    """Column of a sun's glare lobe (in the reduced image), or None when the frame has none."""
+    floor = max(level, 1e-3)
+    if float(np.percentile(least, 99)) < min_lift * floor or float(np.percentile(warm, 99)) < _MIN_WARM * floor:
+        return None
+    w = least.shape[1]
+    half, off = max(1, round(3 * w / 80)), max(2, round(5 * w / 80))
+    profile = least.sum(axis=0)
+    c = int(profile.argmax())
+    if float(profile[max(0, c - half) : c + half + 1].sum()) < _MIN_CONCENTRATION * max(float(profile.sum()), 1e-9):
+        return None
+    row_max = least.max(axis=1)
+    lit = row_max > 0.2 * float(row_max.max())
+    band = least[:, max(0, c - half) : c + half + 1].max(axis=1)
+    if float((lit & (band >= 0.8 * row_max)).mean()) < _MIN_ROWS:
+        return None
+    padded = np.pad(least[lit], ((0, 0), (off, off)))
+    left, right = padded[:, c], padded[:, c + 2 * off]
+    sym = np.minimum(left, right) / np.maximum(np.maximum(left, right), 1e-9)
+    return c if float(np.median(sym)) >= _MIN_SYMMETRY else None
+
+
+def _lobe(lin: Planes, fine: int, wide: int, min_lift: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Lobe amount ``B`` (h, w) and the sun's colour ``t`` (3,) with max 1; None without a lobe.
 
     Each linear plane is opened with a ``fine`` square (paint, texture) and then with a
     ``wide`` horizontal line: what a narrower bright band adds over that floor is the
-    lift. The lobe's colour is the lifts' ratio where the lift is strong; ``B`` is the
-    largest amount of that colour every channel's lift can hold, ``min_c lift_c / t_c``
-    (a grey or coloured surface brighter than its row's floor holds little of a warm
-    lobe's colour in all three channels).
+    lift. :func:`_find_lobe` decides whether the lift is a sun's lobe; its colour is the
+    Rayleigh sun closest to the lifts' ratio on the lobe's flank (a clipped core is
+    grey), and ``B`` the largest amount of that colour every channel's lift can hold,
+    ``min_c lift_c / t_c``.
     """
     k_fine = np.ones((fine, fine), np.uint8)
     k_wide = np.ones((1, wide), np.uint8)
@@ -66,13 +113,50 @@ def _lobe(lin: Planes, fine: int, wide: int) -> tuple[np.ndarray, np.ndarray, fl
     floors = [cv2.morphologyEx(o, cv2.MORPH_OPEN, k_wide) for o in opened]
     lifts = [o - f for o, f in zip(opened, floors)]
     least = cv2.min(cv2.min(lifts[0], lifts[1]), lifts[2])
-    strong = least >= np.percentile(least, _STRONG)
-    med = np.array([float(np.median(x[strong])) for x in lifts])
-    t = np.clip(med / max(float(med.max()), 1e-6), _MIN_TINT, 1.0).astype(np.float32)
-    amount = cv2.min(cv2.min(lifts[0] / t[0], lifts[1] / t[1]), lifts[2] / t[2])
-    amount = cv2.GaussianBlur(amount, (0, 0), 1.0)
     level = float(np.median(cv2.min(cv2.min(floors[0], floors[1]), floors[2])))
-    return amount, t, level
+    if _find_lobe(least, np.maximum(lifts[0] - lifts[2], 0.0), level, min_lift) is None:
+        return None
+    top = float(least.max())
+    flank = (least >= _FLANK[0] * top) & (least <= _FLANK[1] * top)  # below a clipped core, above the floor's grain
+    t = _fit_tint(np.array([float(np.median(x[flank])) for x in lifts]))
+    amount = cv2.min(cv2.min(lifts[0] / t[0], lifts[1] / t[1]), lifts[2] / t[2])
+    return cv2.GaussianBlur(amount, (0, 0), 1.0), t
+
+
+def _clipped(planes: Planes, lobe: np.ndarray) -> np.ndarray:
+    """The lobe's clipped core: its pixels at the lobe's top level, when that level is grey.
+
+    The scene's radiance clips channel by channel (the warm lobe's red first), and a
+    clipped pixel keeps nothing of the road under it. The lobe's brightest pixels are
+    a clip when most of them are grey (channels within a few codes): the sun's colour
+    is warm, so an unclipped top is not.
+    """
+    if not lobe.any():
+        return lobe
+    hi = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+    top = lobe & (hi >= float(hi[lobe].max()) - _CLIP_DEPTH)
+    grey = (hi - cv2.min(cv2.min(planes[0], planes[1]), planes[2])) <= _CLIP_SPREAD
+    return top if 2 * int((top & grey).sum()) >= int(top.sum()) else np.zeros_like(lobe)
+
+
+def _fill_rows(lin: Planes, holes: np.ndarray) -> None:
+    """Replace ``holes`` in each plane, row by row, by the straight line between their nearest neighbours (in place)."""
+    rows = np.flatnonzero(holes.any(axis=1))
+    if rows.size == 0:
+        return
+    w = holes.shape[1]
+    sub = holes[rows]
+    col = np.arange(w)
+    left = np.maximum.accumulate(np.where(sub, -1, col), axis=1)
+    right = np.minimum.accumulate(np.where(sub, w, col)[:, ::-1], axis=1)[:, ::-1]
+    left_ok, right_ok = left >= 0, right < w
+    li = np.where(left_ok, left, np.where(right_ok, right, 0))  # a hole at the border takes its one side
+    ri = np.where(right_ok, right, li)
+    frac = ((col - li) / np.maximum(ri - li, 1)).astype(np.float32)
+    r = rows[:, None]
+    for p in lin:
+        fill = p[r, li] + (p[r, ri] - p[r, li]) * frac
+        p[rows] = np.where(sub, fill, p[rows])
 
 
 def _glare_planes(
@@ -92,12 +176,16 @@ def _glare_planes(
     r0 = min(int(top * h), h - 1)
     sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
     small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
-    amount, t, level = _lobe([_decode(p, shoulder) for p in small], fine, max(3, min((wide // scale) | 1, 2 * sw + 1)))
-    if float(np.percentile(amount, 99)) < min_lift * max(level, 1e-3):
-        return [p.copy() for p in planes], np.zeros((h, w), bool)  # no lobe: identity
+    wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
+    found = _lobe([_decode(p, shoulder) for p in small], fine, wide_small, min_lift)
+    if found is None:
+        return [p.copy() for p in planes], np.zeros((h, w), bool)  # no sun's lobe: identity
+    amount, t = found
     amount = cv2.resize(amount, (w, h - r0), interpolation=cv2.INTER_LINEAR)
     mask = np.zeros((h, w), bool)
-    mask[r0:] = amount > min_excess
+    lobe = amount > min_excess
+    clipped = _clipped([p[r0:] for p in planes], lobe)
+    mask[r0:] = lobe | clipped
     lin = [_decode(p, shoulder) for p in planes]
     m0 = min(int(metering_top * h), h - 1)
     before = sum(float(x[m0:].mean()) for x in lin)
@@ -105,6 +193,7 @@ def _glare_planes(
         sub = lin[c][r0:]
         sub -= amount * t[c]
         np.maximum(sub, 0.0, out=sub)
+    _fill_rows([x[r0:] for x in lin], clipped)  # the clipped core kept nothing of the road: take its sides
     after = sum(float(x[m0:].mean()) for x in lin)
     # The camera metered the lobe: without it, it would have exposed by before/after more.
     gain = np.float32(min(before / max(after, 1e-6), _MAX_GAIN))

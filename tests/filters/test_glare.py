@@ -46,7 +46,7 @@ def test_decode_inverts_encode():
 
 def test_remove_glare_recovers_the_clean_frame_under_a_sun_coloured_lobe():
     clean = _display(_clean_signal())
-    lit, lobe = _glare_signal(peak=1.5)
+    lit, lobe = _glare_signal(peak=2.5)
     img = _display(lit)
     out, mask = remove_glare(img)
     on = lobe > 0.02
@@ -55,8 +55,8 @@ def test_remove_glare_recovers_the_clean_frame_under_a_sun_coloured_lobe():
     assert np.abs(out - clean)[on].mean() < 0.35 * before  # quarter-resolution lobe: not exact
     # the road beside the lobe was darkened by the exposure; it comes back
     beside = (slice(100, 180), slice(20, 90))
-    assert np.abs(img[beside] - clean[beside]).mean() > 0.03
-    assert np.abs(out[beside] - clean[beside]).max() < 0.01
+    assert np.abs(img[beside] - clean[beside]).mean() > 0.1
+    assert np.abs(out[beside] - clean[beside]).max() < 0.2 * np.abs(img[beside] - clean[beside]).mean()
     assert mask[120:, 160].all() and not mask[:80].any() and not mask[:, :20].any()
 
 
@@ -70,7 +70,7 @@ def test_remove_glare_without_a_lobe_is_identity():
 
 
 def test_remove_glare_leaves_the_input_alone_and_keeps_dtype():
-    u8 = (_display(_glare_signal(1.5)[0]) * 255 + 0.5).astype(np.uint8)
+    u8 = (_display(_glare_signal(2.5)[0]) * 255 + 0.5).astype(np.uint8)
     before = u8.copy()
     out, mask = remove_glare(u8)
     assert out.dtype == np.uint8 and out.shape == u8.shape and mask.any()
