@@ -24,6 +24,7 @@ from simroad.filters._common import (
     Planes,
     check_filter_image,
     check_odd_size,
+    crop_box,
     from_planes,
     to_planes,
 )
@@ -141,11 +142,11 @@ def _clipped(planes: Planes, lobe: np.ndarray) -> np.ndarray:
 
 def _fill_rows(lin: Planes, holes: np.ndarray) -> None:
     """Replace ``holes`` in each plane, row by row, by the straight line between their nearest neighbours (in place)."""
-    rows = np.flatnonzero(holes.any(axis=1))
-    if rows.size == 0:
+    if not holes.any():
         return
-    w = holes.shape[1]
-    sub = holes[rows]
+    rows, cols = crop_box(holes, 1)
+    sub = holes[rows, cols]
+    w = sub.shape[1]
     col = np.arange(w)
     left = np.maximum.accumulate(np.where(sub, -1, col), axis=1)
     right = np.minimum.accumulate(np.where(sub, w, col)[:, ::-1], axis=1)[:, ::-1]
@@ -153,10 +154,10 @@ def _fill_rows(lin: Planes, holes: np.ndarray) -> None:
     li = np.where(left_ok, left, np.where(right_ok, right, 0))  # a hole at the border takes its one side
     ri = np.where(right_ok, right, li)
     frac = ((col - li) / np.maximum(ri - li, 1)).astype(np.float32)
-    r = rows[:, None]
     for p in lin:
-        fill = p[r, li] + (p[r, ri] - p[r, li]) * frac
-        p[rows] = np.where(sub, fill, p[rows])
+        box = p[rows, cols]
+        a, b = np.take_along_axis(box, li, axis=1), np.take_along_axis(box, ri, axis=1)
+        np.copyto(box, a + (b - a) * frac, where=sub)
 
 
 def _glare_planes(

@@ -45,3 +45,13 @@ def test_grow_road_without_seeds_is_empty_and_rejects_bad_input():
         grow_road(img, np.zeros((10, 10), bool))
     with pytest.raises(SimroadError, match="image"):
         grow_road(img.astype(np.float32), np.zeros((180, 320), bool))
+
+
+def test_the_light_filter_changes_no_mask_without_a_sun_lobe():
+    from simroad.detector import RoadDetector
+    from simroad.experiments.frames import collect_frames
+
+    frames = collect_frames(scenarios=("racetrack", "town"), seeds=[7], frames_per_seed=2, every=6, noise="clear")
+    plain, light = RoadDetector.pretrained(), RoadDetector.pretrained(filters=("light",))
+    for img in frames.images:
+        np.testing.assert_array_equal(light.predict(img), plain.predict(img))

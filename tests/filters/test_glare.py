@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
+from simroad.experiments.frames import collect_frames
 from simroad.filters import remove_glare
-from simroad.filters.glare import _decode, _encode
+from simroad.filters.glare import _decode, _encode, _fit_tint, sun_tint
 
 H, W = 180, 320
 SUN = np.array([1.0, 0.8, 0.45], np.float32)  # Rayleigh-reddened sun at ~13 degrees
@@ -92,3 +93,39 @@ def test_remove_glare_leaves_the_input_alone_and_keeps_dtype():
 def test_remove_glare_rejects_bad_parameters(kwargs, match):
     with pytest.raises(SimroadError, match=match):
         remove_glare(np.zeros((20, 20, 3), np.uint8), **kwargs)
+
+
+def test_the_sun_colour_is_fitted_on_the_rayleigh_curve():
+    # A lift with the Rayleigh colour of an air mass comes back as it is ...
+    np.testing.assert_allclose(_fit_tint(sun_tint(4.4)), sun_tint(4.4), atol=1e-5)
+    # ... a bluish lift (the veil, a clipped core) is pulled onto the curve: warm, never blue.
+    t = _fit_tint(np.array([0.9, 0.95, 1.0]))
+    np.testing.assert_allclose(t, sun_tint(1.0), atol=1e-6)
+    assert t[0] == 1.0 and t[0] > t[1] > t[2]
+
+
+def test_a_grey_step_is_not_a_sun_lobe():
+    # a grey band with sharp edges (lane paint, a concrete verge) as bright as the lobe
+    y = _clean_signal()
+    y[90:, 150:170] += 0.8
+    u8 = (_display(y) * 255 + 0.5).astype(np.uint8)
+    out, mask = remove_glare(u8)
+    assert not mask.any()
+    np.testing.assert_array_equal(out, u8)
+
+
+@pytest.mark.parametrize("noise", ["clear", "rain", "snow", "shadow"])
+def test_rendered_frames_without_glare_pass_through_bit_identical(noise):
+    frames = collect_frames(scenarios=("highway", "town"), seeds=[7], frames_per_seed=2, every=6, noise=noise)
+    for img in frames.images:
+        out, mask = remove_glare(img)
+        assert not mask.any()
+        np.testing.assert_array_equal(out, img)
+
+
+def test_a_rendered_low_sun_ahead_is_found_and_removed():
+    frames = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
+    img = frames.images[0]
+    out, mask = remove_glare(img)
+    assert mask[100:].mean() > 0.02 and not mask[:70].any()
+    assert out[mask].mean() < img[mask].mean()  # the lobe is gone
