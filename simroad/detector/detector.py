@@ -33,6 +33,7 @@ from simroad._validation import (
     normalize_rng,
 )
 from simroad.detector.features import N_FEATURES, _features_f
+from simroad.detector.growth import GROW_TOLERANCE, _as_uint8, _grow
 from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
@@ -40,8 +41,8 @@ from simroad.detector.pixels import (
     IMAGE_DTYPES,
     MIN_IMAGE_SIZE,
     check_training_set,
-    filtered_rgb,
-    filtered_uint8_planes,
+    filtered_rgb_masks,
+    filtered_uint8_planes_masks,
     sample_pixels,
 )
 from simroad.detector.svm import KernelExpansion
@@ -244,14 +245,23 @@ class RoadDetector(BaseEstimator):
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
         if exact:
-            mask = self._decide_rgb(filtered_rgb(image, filters, variant)).reshape(image.shape[:2])
+            rgb, acted = filtered_rgb_masks(image, filters, variant)
+            mask = self._decide_rgb(rgb).reshape(image.shape[:2])
         else:
-            mask = self.lut_.lookup(filtered_uint8_planes(image, filters, variant))
+            planes, acted = filtered_uint8_planes_masks(image, filters, variant)
+            mask = self.lut_.lookup(planes)
         if check_bool("morphology", self.morphology):
             ground = getattr(self, "ground_", None)
             if ground is not None and variant == "improved" and ground.shape == mask.shape:
                 mask &= ground  # nothing above the horizon is road, nor joins the road
-            mask = _fill_holes(_ego_component(mask))
+            else:
+                ground = None
+            mask = _ego_component(mask)
+            lobe = acted.get("light") if variant == "improved" else None
+            if lobe is not None and lobe.any():  # not §III: the road through the glare lobe the filter removed
+                seeds = mask | lobe if ground is None else mask | (lobe & ground)  # the ego stands on road
+                mask = _ego_component(mask | _grow(_as_uint8(image), seeds, ground, GROW_TOLERANCE, 2))
+            mask = _fill_holes(mask)
         return mask
 
     def set_camera(self, camera: Any) -> RoadDetector:

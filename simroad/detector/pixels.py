@@ -8,14 +8,16 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_mask
 from simroad.filters._common import planes_to_uint8, to_planes
-from simroad.filters.pipeline import filter_planes
+from simroad.filters.pipeline import filter_planes_masks
 
 __all__ = [
     "IMAGE_DTYPES",
     "MIN_IMAGE_SIZE",
     "check_training_set",
     "filtered_rgb",
+    "filtered_rgb_masks",
     "filtered_uint8_planes",
+    "filtered_uint8_planes_masks",
     "sample_pixels",
 ]
 
@@ -93,16 +95,31 @@ def sample_pixels(
 
 def filtered_rgb(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> np.ndarray:
     """Filtered colours of every pixel as (H * W, 3) float64 rows in [0, 1]."""
+    return filtered_rgb_masks(image, filters, variant)[0]
+
+
+def filtered_rgb_masks(
+    image: np.ndarray, filters: tuple[str, ...], variant: str = "improved"
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """:func:`filtered_rgb`, and each filter's mask (where it acted; see :func:`filter_planes_masks`)."""
     if filters:
-        planes = filter_planes(to_planes(image), filters, variant)
-        return np.stack([p.ravel() for p in planes], axis=1).astype(np.float64)
-    return image.reshape(-1, 3) / (255.0 if image.dtype == np.uint8 else 1.0)
+        planes, masks = filter_planes_masks(to_planes(image), filters, variant)
+        return np.stack([p.ravel() for p in planes], axis=1).astype(np.float64), masks
+    return image.reshape(-1, 3) / (255.0 if image.dtype == np.uint8 else 1.0), {}
 
 
 def filtered_uint8_planes(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> list[np.ndarray]:
     """Filtered image as three uint8 (H, W) planes, the lookup table's input."""
+    return filtered_uint8_planes_masks(image, filters, variant)[0]
+
+
+def filtered_uint8_planes_masks(
+    image: np.ndarray, filters: tuple[str, ...], variant: str = "improved"
+) -> tuple[list[np.ndarray], dict[str, np.ndarray]]:
+    """:func:`filtered_uint8_planes`, and each filter's mask (where it acted; see :func:`filter_planes_masks`)."""
     if filters:
-        return planes_to_uint8(filter_planes(to_planes(image), filters, variant))
+        planes, masks = filter_planes_masks(to_planes(image), filters, variant)
+        return planes_to_uint8(planes), masks
     if image.dtype != np.uint8:
-        return planes_to_uint8([np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)])
-    return [image[..., c] for c in range(3)]
+        return planes_to_uint8([np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)]), {}
+    return [image[..., c] for c in range(3)], {}

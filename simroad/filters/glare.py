@@ -1,14 +1,16 @@
-"""The improved light filter: subtract a sun glare lobe's additive radiance (dichromatic model, eq. 23).
+"""The improved light filter: subtract a sun glare lobe's additive radiance (dichromatic model, eq. 23), re-expose.
 
 Eq. 27 cannot separate white light from a grey surface (see :mod:`simroad.filters.highlights`), and
 sun glare on asphalt is exactly that. The improved variant uses what eq. 23 says
 about the *specular* term instead: in linear radiance it is additive, smooth and has
-the sun's colour ``t``, so it lifts every channel -- and hence the darkest one -- by
-``w_s G t_c``. A lobe on the road is a broad bright band narrower than the frame:
-a wide horizontal morphological opening of the (finely opened) darkest channel
-follows the diffuse floor under it, and the excess over that floor is the lobe.
-Where the sensor saturated, nothing of the surface is left: those pixels are
-inpainted from the corrected surroundings (OpenCV's Telea).
+the sun's colour ``t`` (warm at a low sun), so it lifts channel ``c`` by ``B t_c``.
+
+What the camera then does matters as much as the lobe: its auto-exposure meters the
+lower part of the frame, so a bright lobe there lowers the exposure and the road
+*beside* the lobe turns darker than the detector has ever seen it. The filter
+therefore works in the camera's linear signal (sRGB decoded, the response curve's
+shoulder undone), removes the lobe, and re-exposes the frame as the camera would
+have metered it without the lobe.
 """
 
 from __future__ import annotations
@@ -20,8 +22,6 @@ from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
-    channel_max,
-    channel_min,
     check_filter_image,
     check_odd_size,
     crop_box,
@@ -31,43 +31,133 @@ from simroad.filters._common import (
 
 __all__ = ["remove_glare"]
 
-_MAX_TINT = 2.0
 _SCALE = 4  # the lobe is estimated on an image this many times smaller
+_MIN_TINT = 0.2  # smallest relative channel of the sun's colour (Rayleigh at 5 degrees: ~0.45)
+_FLANK = (0.3, 0.7)  # the lobe's flank, as fractions of its peak lift, gives its colour
+_MAX_GAIN = 4.0  # largest re-exposure, in linear gain
 
 
-def _lobe_estimate(
-    lin: Planes, fine: int, wide: int, min_excess: float, saturation: float, raw: Planes
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Glare lobe ``(excess, region, colour)`` on reduced-resolution linear planes, or None.
+def _decode(p: np.ndarray, shoulder: float) -> np.ndarray:
+    """Display value in [0, 1] -> the camera's linear signal (sRGB decoded, shoulder undone)."""
+    z = np.where(p <= 0.04045, p * np.float32(1 / 12.92), cv2.pow((p + 0.055) * np.float32(1 / 1.055), 2.4))
+    return (z / (np.float32(1.0 + shoulder) - np.float32(shoulder) * z)).astype(np.float32)
 
-    ``excess`` is the darkest channel's lift over its wide opening (the diffuse floor),
-    ``region`` the part of ``excess > min_excess`` connected to a saturated pixel of
-    ``raw`` (the display-space planes), ``colour`` the lobe's colour per channel relative
-    to the darkest channel (median ratio of the channels' own lifts where the lobe is
-    strong and unsaturated).
+
+def _encode(y: np.ndarray, shoulder: float) -> np.ndarray:
+    """Inverse of :func:`_decode`: the response curve's shoulder, then sRGB."""
+    y = np.clip(y, 0.0, 1.0)
+    z = np.float32(1.0 + shoulder) * y / (np.float32(1.0) + np.float32(shoulder) * y)
+    hi = np.float32(1.055) * cv2.pow(z, 1 / 2.4) - np.float32(0.055)
+    return np.where(z <= 0.0031308, z * np.float32(12.92), hi).astype(np.float32)
+
+
+_TAU_RGB = np.array([0.05, 0.10, 0.23])  # Rayleigh optical depth of the clear atmosphere at ~620, 550, 460 nm
+_AIR_MASS = (1.0, 38.0)  # sun overhead .. on the horizon (Kasten & Young)
+_MIN_WARM = 0.6  # the lobe's R - B lift (99th percentile) over the floor's level: a warm sun
+_MIN_CONCENTRATION = 0.42  # share of the lift's column profile within +-3/80 of the width of its peak
+_MIN_ROWS = 0.78  # share of the lit rows whose largest lift lies in that band
+_MIN_SYMMETRY = 0.3  # median ratio of the lift 5/80 of the width left and right of the peak (a bell, not a step)
+_CLIP_SPREAD = 6.0 / 255.0  # a clipped pixel: channels within this of each other ...
+_CLIP_DEPTH = 8.0 / 255.0  # ... and within this of the frame's brightest lobe pixel
+
+
+def sun_tint(air_mass: float) -> np.ndarray:
+    """Relative RGB of direct sunlight after Rayleigh extinction along ``air_mass``, max 1."""
+    c = np.exp(-_TAU_RGB * air_mass)
+    return (c / c.max()).astype(np.float32)
+
+
+def _fit_tint(lift_rgb: np.ndarray) -> np.ndarray:
+    """The sun colour on the Rayleigh curve closest to a lift's colour (least squares in log ratios)."""
+    rgb = np.maximum(np.asarray(lift_rgb, np.float64), 1e-6)
+    logs = np.log(rgb[1:] / rgb[0])  # log G/R, log B/R
+    d = _TAU_RGB[1:] - _TAU_RGB[0]
+    m = float(-(d @ logs) / (d @ d))
+    return sun_tint(min(max(m, _AIR_MASS[0]), _AIR_MASS[1]))
+
+
+def _find_lobe(least: np.ndarray, warm: np.ndarray, level: float, min_lift: float) -> int | None:
+    """Column of a sun's glare lobe (in the reduced image), or None when the frame has none."""
+    floor = max(level, 1e-3)
+    if float(np.percentile(least, 99)) < min_lift * floor or float(np.percentile(warm, 99)) < _MIN_WARM * floor:
+        return None
+    w = least.shape[1]
+    half, off = max(1, round(3 * w / 80)), max(2, round(5 * w / 80))
+    profile = least.sum(axis=0)
+    c = int(profile.argmax())
+    if float(profile[max(0, c - half) : c + half + 1].sum()) < _MIN_CONCENTRATION * max(float(profile.sum()), 1e-9):
+        return None
+    row_max = least.max(axis=1)
+    lit = row_max > 0.2 * float(row_max.max())
+    band = least[:, max(0, c - half) : c + half + 1].max(axis=1)
+    if float((lit & (band >= 0.8 * row_max)).mean()) < _MIN_ROWS:
+        return None
+    padded = np.pad(least[lit], ((0, 0), (off, off)))
+    left, right = padded[:, c], padded[:, c + 2 * off]
+    sym = np.minimum(left, right) / np.maximum(np.maximum(left, right), 1e-9)
+    return c if float(np.median(sym)) >= _MIN_SYMMETRY else None
+
+
+def _lobe(lin: Planes, fine: int, wide: int, min_lift: float) -> tuple[np.ndarray, np.ndarray] | None:
+    """Lobe amount ``B`` (h, w) and the sun's colour ``t`` (3,) with max 1; None without a lobe.
+
+    Each linear plane is opened with a ``fine`` square (paint, texture) and then with a
+    ``wide`` horizontal line: what a narrower bright band adds over that floor is the
+    lift. :func:`_find_lobe` decides whether the lift is a sun's lobe; its colour is the
+    Rayleigh sun closest to the lifts' ratio on the lobe's flank (a clipped core is
+    grey), and ``B`` the largest amount of that colour every channel's lift can hold,
+    ``min_c lift_c / t_c``.
     """
     k_fine = np.ones((fine, fine), np.uint8)
     k_wide = np.ones((1, wide), np.uint8)
     opened = [cv2.morphologyEx(p, cv2.MORPH_OPEN, k_fine) for p in lin]
-    lifts = [o - cv2.morphologyEx(o, cv2.MORPH_OPEN, k_wide) for o in opened]
-    darkest = int(np.argmin([float(x.sum()) for x in lifts]))
-    excess = cv2.min(cv2.min(lifts[0], lifts[1]), lifts[2])
-    region = excess > min_excess
-    sat = channel_min(raw) >= saturation
-    n, labels = cv2.connectedComponents(region.view(np.uint8), connectivity=8)
-    keep = np.zeros(n, bool)
-    keep[np.unique(labels[sat & region])] = True
-    keep[0] = False
-    if not keep.any():
+    floors = [cv2.morphologyEx(o, cv2.MORPH_OPEN, k_wide) for o in opened]
+    lifts = [o - f for o, f in zip(opened, floors)]
+    least = cv2.min(cv2.min(lifts[0], lifts[1]), lifts[2])
+    level = float(np.median(cv2.min(cv2.min(floors[0], floors[1]), floors[2])))
+    if _find_lobe(least, np.maximum(lifts[0] - lifts[2], 0.0), level, min_lift) is None:
         return None
-    region = keep[labels]
-    unsat = region & (channel_max(raw) < 0.95)
-    base = lifts[darkest][unsat]
-    if base.size < 8:
-        return None
-    strong = base > np.percentile(base, 70)
-    colour = np.array([float(np.median(x[unsat][strong] / np.maximum(base[strong], 1e-6))) for x in lifts], np.float32)
-    return excess, region, np.clip(colour, 1.0, _MAX_TINT)
+    top = float(least.max())
+    flank = (least >= _FLANK[0] * top) & (least <= _FLANK[1] * top)  # below a clipped core, above the floor's grain
+    t = _fit_tint(np.array([float(np.median(x[flank])) for x in lifts]))
+    amount = cv2.min(cv2.min(lifts[0] / t[0], lifts[1] / t[1]), lifts[2] / t[2])
+    return cv2.GaussianBlur(amount, (0, 0), 1.0), t
+
+
+def _clipped(planes: Planes, lobe: np.ndarray) -> np.ndarray:
+    """The lobe's clipped core: its pixels at the lobe's top level, when that level is grey.
+
+    The scene's radiance clips channel by channel (the warm lobe's red first), and a
+    clipped pixel keeps nothing of the road under it. The lobe's brightest pixels are
+    a clip when most of them are grey (channels within a few codes): the sun's colour
+    is warm, so an unclipped top is not.
+    """
+    if not lobe.any():
+        return lobe
+    hi = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
+    top = lobe & (hi >= float(hi[lobe].max()) - _CLIP_DEPTH)
+    grey = (hi - cv2.min(cv2.min(planes[0], planes[1]), planes[2])) <= _CLIP_SPREAD
+    return top if 2 * int((top & grey).sum()) >= int(top.sum()) else np.zeros_like(lobe)
+
+
+def _fill_rows(lin: Planes, holes: np.ndarray) -> None:
+    """Replace ``holes`` in each plane, row by row, by the straight line between their nearest neighbours (in place)."""
+    if not holes.any():
+        return
+    rows, cols = crop_box(holes, 1)
+    sub = holes[rows, cols]
+    w = sub.shape[1]
+    col = np.arange(w)
+    left = np.maximum.accumulate(np.where(sub, -1, col), axis=1)
+    right = np.minimum.accumulate(np.where(sub, w, col)[:, ::-1], axis=1)[:, ::-1]
+    left_ok, right_ok = left >= 0, right < w
+    li = np.where(left_ok, left, np.where(right_ok, right, 0))  # a hole at the border takes its one side
+    ri = np.where(right_ok, right, li)
+    frac = ((col - li) / np.maximum(ri - li, 1)).astype(np.float32)
+    for p in lin:
+        box = p[rows, cols]
+        a, b = np.take_along_axis(box, li, axis=1), np.take_along_axis(box, ri, axis=1)
+        np.copyto(box, a + (b - a) * frac, where=sub)
 
 
 def _glare_planes(
@@ -75,77 +165,72 @@ def _glare_planes(
     *,
     fine: int,
     wide: int,
+    min_lift: float,
     min_excess: float,
-    saturation: float,
-    core: float,
-    gamma: float,
+    top: float,
+    metering_top: float,
+    shoulder: float,
     scale: int = _SCALE,
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask)."""
     h, w = planes[0].shape
-    out = [p.copy() for p in planes]
-    if not (channel_min(planes) >= saturation).any():  # no clipped pixel: no glare to remove
-        return out, np.zeros((h, w), bool)
-    sh, sw = max(1, h // scale), max(1, w // scale)
-    small = [cv2.resize(p, (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
-    lin_small = [cv2.pow(p, float(gamma)) for p in small]
-    found = _lobe_estimate(lin_small, fine, max(3, (wide // scale) | 1), min_excess, saturation, small)
+    r0 = min(int(top * h), h - 1)
+    sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
+    small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
+    wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
+    found = _lobe([_decode(p, shoulder) for p in small], fine, wide_small, min_lift)
     if found is None:
-        return out, np.zeros((h, w), bool)
-    excess, region, colour = found
-    excess = cv2.resize(np.where(region, excess, 0).astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR)
-    mask = excess > 0
-    rs, cs = crop_box(mask, 0)
-    excess, inside = excess[rs, cs], mask[rs, cs]
-    for c, (o, p) in enumerate(zip(out, planes)):
-        lin = cv2.pow(np.ascontiguousarray(p[rs, cs]), float(gamma))
-        lin -= excess * colour[c]
-        np.maximum(lin, 0.0, out=lin)
-        np.copyto(o[rs, cs], cv2.pow(lin, 1.0 / float(gamma)), where=inside)
-    # Saturated pixels keep nothing of the surface: fill them from their surroundings
-    # (at quarter resolution: the fill is smooth anyway).
-    qh, qw = max(1, h // 4), max(1, w // 4)
-    clipped = cv2.resize(
-        ((channel_min(small) >= core) & region).view(np.uint8), (qw, qh), interpolation=cv2.INTER_NEAREST
-    )
-    if clipped.any():
-        clipped = cv2.dilate(clipped, np.ones((3, 3), np.uint8))
-        reduced = cv2.merge([cv2.resize(o, (qw, qh), interpolation=cv2.INTER_AREA) for o in out])
-        filled = cv2.inpaint(
-            cv2.convertScaleAbs(np.clip(reduced, 0.0, 1.0), alpha=255.0), clipped, 2, cv2.INPAINT_TELEA
-        )
-        where = cv2.resize(clipped, (w, h), interpolation=cv2.INTER_NEAREST) > 0
-        fill_full = cv2.resize(filled, (w, h), interpolation=cv2.INTER_LINEAR)
-        for c, o in enumerate(out):
-            np.copyto(o, fill_full[..., c].astype(np.float32) * np.float32(1 / 255), where=where)
-        mask |= where
-    return out, mask
+        return [p.copy() for p in planes], np.zeros((h, w), bool)  # no sun's lobe: identity
+    amount, t = found
+    amount = cv2.resize(amount, (w, h - r0), interpolation=cv2.INTER_LINEAR)
+    mask = np.zeros((h, w), bool)
+    lobe = amount > min_excess
+    clipped = _clipped([p[r0:] for p in planes], lobe)
+    mask[r0:] = lobe | clipped
+    lin = [_decode(p, shoulder) for p in planes]
+    m0 = min(int(metering_top * h), h - 1)
+    before = sum(float(x[m0:].mean()) for x in lin)
+    for c in range(3):
+        sub = lin[c][r0:]
+        sub -= amount * t[c]
+        np.maximum(sub, 0.0, out=sub)
+    _fill_rows([x[r0:] for x in lin], clipped)  # the clipped core kept nothing of the road: take its sides
+    after = sum(float(x[m0:].mean()) for x in lin)
+    # The camera metered the lobe: without it, it would have exposed by before/after more.
+    gain = np.float32(min(before / max(after, 1e-6), _MAX_GAIN))
+    return [_encode(x * gain, shoulder) for x in lin], mask
 
 
 def remove_glare(
     image: np.ndarray,
     *,
     fine: int = 3,
-    wide: int = 481,
+    wide: int = 107,
+    min_lift: float = 2.5,
     min_excess: float = 0.01,
-    saturation: float = 0.98,
-    core: float = 0.8,
-    gamma: float = 2.2,
+    top: float = 0.45,
+    metering_top: float = 0.5,
+    shoulder: float = 1.0,
 ) -> FilterResult:
-    """Remove a sun glare lobe by subtracting its additive, sun-coloured radiance.
+    """Remove a sun glare lobe by subtracting its additive, sun-coloured radiance; re-expose.
 
-    The improved light filter (the paper's eq. 27 cannot act on grey asphalt). Working
-    at quarter resolution in linear radiance ``L = I**gamma``: each channel is opened
-    with a ``fine`` square (removing lane paint and texture) and then with a ``wide``
-    horizontal line; the lift of the opened channel over its wide opening is what a
-    broad, bright band added on top of the diffuse floor -- the specular lobe of eq. 23
-    -- looks like. The glare region is where the darkest channel's lift exceeds
-    ``min_excess`` and is connected to a pixel whose dark channel reaches
-    ``saturation``; there each channel loses ``lift * t_c``, with ``t`` the lobe's
-    colour (median ratio of each channel's lift to the darkest one's where the lobe is
-    strong and unsaturated; a low sun is warm). Pixels at or above ``core`` in every
-    channel were clipped by the sensor and are inpainted from their corrected
-    surroundings (``cv2.inpaint``, Telea).
+    The improved light filter (the paper's eq. 27 cannot act on grey asphalt).
+
+    1. Decode the frame to the camera's linear signal: sRGB decoding, then the inverse
+       of the response curve's shoulder ``z = (1 + k) y / (1 + k y)``
+       (:mod:`simroad.camera.sensor`).
+    2. On the rows from ``top`` down (the ground), at quarter resolution, open each
+       channel with a ``fine`` square (lane paint, texture) and then with a ``wide``
+       horizontal line (the floor); the lift over the floor is what a band narrower
+       than ``wide`` adds -- the specular lobe of eq. 23. Its colour ``t`` is the
+       channels' median lift where the common lift is in its top 5 % (a low sun is
+       warm), and the lobe ``B = min_c lift_c / t_c``, lightly smoothed.
+    3. If the lobe's 99th percentile is below ``min_lift`` times the floor's median
+       level there is no glare: the frame is returned unchanged.
+    4. Otherwise each channel loses ``B t_c``, and the frame is re-exposed by the
+       ratio of the metered mean (rows from ``metering_top`` down, all channels)
+       before and after the removal: the exposure the camera's auto-exposure would
+       have chosen without the lobe (at most 4x).
 
     Parameters
     ----------
@@ -154,32 +239,45 @@ def remove_glare(
     fine : int, optional
         Side of the small opening, in quarter-resolution pixels, odd, in [1, 31].
     wide : int, optional
-        Length of the horizontal opening in full-resolution pixels (a lobe is
-        narrower), in [3, 4095]. The default is longer than a 320-pixel row: the
-        floor is then the row's minimum.
+        Length of the horizontal opening in full-resolution pixels, in [3, 4095]: a
+        lobe is narrower, the road and its roadside are wider.
+    min_lift : float, optional
+        Glare is present when the lobe's 99th percentile exceeds this many times the
+        floor's level, in (0, 100].
     min_excess : float, optional
-        Smallest linear lift that counts as glare, in (0, 1).
-    saturation : float, optional
-        A region is glare only if its dark channel reaches this somewhere, in (0, 1].
-    core : float, optional
-        Pixels whose three channels all reach this are inpainted, in (0, 1].
-    gamma : float, optional
-        Display gamma of the image (linear radiance = ``I**gamma``), in [1, 3].
+        Smallest linear lobe amount reported in the mask, in (0, 1).
+    top : float, optional
+        First row searched for the lobe, as a fraction of the height, in [0, 1).
+    metering_top : float, optional
+        First row of the camera's metering window, as a fraction of the height, in
+        [0, 1) (the sensor's ``ae_roi_top``).
+    shoulder : float, optional
+        The camera response curve's shoulder ``k``, in [0, 20] (the sensor's
+        ``tone_shoulder``; 0 for a plain sRGB frame).
 
     Returns
     -------
     FilterResult
-        ``image``: same shape and dtype as the input, the lobe removed. ``mask``:
-        bool (H, W), the corrected pixels (the glare region and the inpainted ones).
+        ``image``: same shape and dtype as the input, the lobe removed and re-exposed
+        (unchanged when no glare is found). ``mask``: bool (H, W), where the lobe
+        removed more than ``min_excess``.
     """
     image = check_filter_image("image", image)
     fine = check_odd_size("fine", fine, 1, 31)
     wide = check_int_in_range("wide", wide, 3, 4095)
+    min_lift = check_in_range("min_lift", min_lift, 0.0, 100.0, low_inclusive=False)
     min_excess = check_in_range("min_excess", min_excess, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
-    saturation = check_in_range("saturation", saturation, 0.0, 1.0, low_inclusive=False)
-    core = check_in_range("core", core, 0.0, 1.0, low_inclusive=False)
-    gamma = check_in_range("gamma", gamma, 1.0, 3.0)
+    top = check_in_range("top", top, 0.0, 1.0, high_inclusive=False)
+    metering_top = check_in_range("metering_top", metering_top, 0.0, 1.0, high_inclusive=False)
+    shoulder = check_in_range("shoulder", shoulder, 0.0, 20.0)
     out, mask = _glare_planes(
-        to_planes(image), fine=fine, wide=wide, min_excess=min_excess, saturation=saturation, core=core, gamma=gamma
+        to_planes(image),
+        fine=fine,
+        wide=wide,
+        min_lift=min_lift,
+        min_excess=min_excess,
+        top=top,
+        metering_top=metering_top,
+        shoulder=shoulder,
     )
     return FilterResult(from_planes(out, image.dtype), mask)

@@ -49,6 +49,7 @@ __all__ = [
     "check_filters",
     "check_variant",
     "filter_planes",
+    "filter_planes_masks",
     "format_filters",
     "parse_filters",
 ]
@@ -227,12 +228,22 @@ def filter_planes(planes: Planes, filters: tuple[str, ...], variant: str = "impr
 
     Each filter's steps run in turn, and the planes are clipped after each filter.
     """
-    out = planes
+    return filter_planes_masks(planes, filters, variant)[0]
+
+
+def filter_planes_masks(
+    planes: Planes, filters: tuple[str, ...], variant: str = "improved"
+) -> tuple[Planes, dict[str, np.ndarray]]:
+    """:func:`filter_planes`, and where each filter acted: ``{name: bool (H, W)}``, its steps' masks united."""
+    out, masks = planes, {}
     for name in filters:
+        acted = np.zeros(planes[0].shape, bool)
         for step in FILTER_REGISTRY[name].steps(variant):
-            out, _ = step.run(out)
+            out, mask = step.run(out)
+            acted |= mask
         clip_planes(out)
-    return out
+        masks[name] = acted
+    return out, masks
 
 
 def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, variant: str = "improved") -> np.ndarray:

@@ -102,7 +102,7 @@ CASES: dict[str, list[Case]] = {
         ("range", lambda: F.parse_filters("shadow+fog"), "filters"),
     ],
     "remove_colour_cast": _image_cases(F.remove_colour_cast, rows=0.0, gamma=0.5),
-    "remove_glare": _image_cases(F.remove_glare, core=2.0, fine=4),
+    "remove_glare": _image_cases(F.remove_glare, min_lift=0.0, fine=4),
     "remove_haze": _image_cases(F.remove_haze, t_min=0.0, percentile=80.0),
     "remove_highlights": _image_cases(F.remove_highlights, radius=0, iterations=-1),
     "remove_rain_snow": _image_cases(F.remove_rain_snow, eps=0.0, protect=-1),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
-from simroad.filters import dark_channel, remove_glare, remove_highlights, specular_to_diffuse
+from simroad.filters import dark_channel, remove_highlights, specular_to_diffuse
 from simroad.filters._common import to_planes
 from simroad.filters.highlights import _diffuse_planes, _max_diffuse_chromaticity
 
@@ -93,65 +93,3 @@ def test_chromaticity_estimate_on_the_highlight_box_equals_the_whole_image(subsa
     assert mask.mean() < 0.5
     expect = np.stack(_diffuse_planes(planes, full, 0.1), axis=-1)
     np.testing.assert_allclose(out[mask], np.clip(expect, 0, 1)[mask], atol=atol)
-
-
-# ------------------------------------------------------------ glare removal (improved)
-def _glare_scene(lobe_peak=1.2, colour=(1.7, 1.45, 1.0), gamma=2.2):
-    """Grey asphalt (display 0.30) with brighter grey shoulders at both edges, plus a
-    warm additive lobe in *linear* radiance: a vertical Gaussian band whose peak clips
-    the sensor. Returns (display image float32, clean display image, lobe mask)."""
-    h, w = 90, 320
-    clean = np.full((h, w, 3), 0.30, np.float32)
-    clean[:, :30] = 0.55
-    clean[:, -30:] = 0.55
-    x = np.arange(w, dtype=np.float32)
-    band = lobe_peak * np.exp(-0.5 * ((x - 160) / 18.0) ** 2)  # linear radiance, per column
-    lin = clean**gamma + band[None, :, None] * np.asarray(colour, np.float32)[None, None, :] / min(colour)
-    img = np.clip(lin, 0, 1) ** (1 / gamma)
-    return img.astype(np.float32), clean, np.broadcast_to(band > 0.01, (h, w))
-
-
-def test_remove_glare_recovers_the_surface_under_an_additive_warm_lobe():
-    img, clean, lobe = _glare_scene()
-    out, mask = remove_glare(img)
-    assert mask[:, 160].all() and not mask[:, :20].any()
-    err_before = np.abs(img - clean)[lobe].mean()
-    err_after = np.abs(out - clean)[lobe].mean()
-    assert err_before > 0.2
-    assert err_after < 0.25 * err_before
-    # the unclipped skirt of the lobe comes back to the asphalt's grey within 0.05
-    skirt = lobe & (img.min(axis=2) < 0.8) & (np.abs(np.arange(320) - 160) < 60)[None, :]
-    assert np.abs(out - clean)[skirt].max() < 0.05
-    # the shoulders are not touched
-    np.testing.assert_array_equal(out[:, :20], img[:, :20])
-
-
-def test_remove_glare_without_clipped_pixels_is_identity():
-    img, _, _ = _glare_scene(lobe_peak=0.2)  # bright band but nothing saturates
-    u8 = (img * 255 + 0.5).astype(np.uint8)
-    out, mask = remove_glare(u8)
-    assert not mask.any()
-    np.testing.assert_array_equal(out, u8)
-
-
-def test_remove_glare_leaves_the_input_alone_and_keeps_dtype():
-    img, _, _ = _glare_scene()
-    u8 = (img * 255 + 0.5).astype(np.uint8)
-    before = u8.copy()
-    out, _ = remove_glare(u8)
-    assert out.dtype == np.uint8 and out.shape == u8.shape
-    np.testing.assert_array_equal(u8, before)
-
-
-@pytest.mark.parametrize(
-    ("kwargs", "match"),
-    [
-        ({"fine": 4}, "fine: expected an odd window size, got 4. Use 5."),
-        ({"wide": 1}, "wide"),
-        ({"min_excess": 0.0}, "min_excess"),
-        ({"gamma": 5.0}, "gamma"),
-    ],
-)
-def test_remove_glare_rejects_bad_parameters(kwargs, match):
-    with pytest.raises(SimroadError, match=match):
-        remove_glare(np.zeros((20, 20, 3), np.uint8), **kwargs)

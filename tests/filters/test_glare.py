@@ -1,0 +1,131 @@
+"""The improved light filter (simroad.filters.glare) against a lobe worked by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from simroad import SimroadError
+from simroad.experiments.frames import collect_frames
+from simroad.filters import remove_glare
+from simroad.filters.glare import _decode, _encode, _fit_tint, sun_tint
+
+H, W = 180, 320
+SUN = np.array([1.0, 0.8, 0.45], np.float32)  # Rayleigh-reddened sun at ~13 degrees
+
+
+def _clean_signal() -> np.ndarray:
+    """Linear camera signal: bright sky, grey asphalt (0.10) between grey shoulders (0.30)
+    wider than the filter's ``wide`` opening (107 px), as the filter assumes."""
+    y = np.full((H, W, 3), 0.10, np.float32)
+    y[:, :110] = 0.30
+    y[:, -110:] = 0.30
+    y[:75] = 0.6
+    return y
+
+
+def _glare_signal(peak: float) -> tuple[np.ndarray, np.ndarray]:
+    """The clean signal plus an additive sun-coloured lobe on the ground (rows >= 90),
+    exposed as the camera's auto-exposure would meter it (same mean of rows 90..179)."""
+    clean = _clean_signal()
+    col = np.arange(W, dtype=np.float32)
+    lobe = np.zeros((H, W), np.float32)
+    lobe[90:] = peak * np.exp(-0.5 * ((col - 160.0) / 15.0) ** 2)[None, :]
+    lit = clean + lobe[..., None] * SUN
+    exposure = clean[90:].mean() / lit[90:].mean()
+    return lit * exposure, lobe
+
+
+def _display(y: np.ndarray) -> np.ndarray:
+    return np.stack([_encode(y[..., c], 1.0) for c in range(3)], axis=-1)
+
+
+def test_decode_inverts_encode():
+    y = np.linspace(0.0, 1.0, 101, dtype=np.float32)
+    np.testing.assert_allclose(_decode(_encode(y, 1.0), 1.0), y, atol=1e-5)
+
+
+def test_remove_glare_recovers_the_clean_frame_under_a_sun_coloured_lobe():
+    clean = _display(_clean_signal())
+    lit, lobe = _glare_signal(peak=2.5)
+    img = _display(lit)
+    out, mask = remove_glare(img)
+    on = lobe > 0.02
+    before = np.abs(img - clean)[on].mean()
+    assert before > 0.1  # the lobe and the exposure change the frame
+    assert np.abs(out - clean)[on].mean() < 0.35 * before  # quarter-resolution lobe: not exact
+    # the road beside the lobe was darkened by the exposure; it comes back
+    beside = (slice(100, 180), slice(20, 90))
+    assert np.abs(img[beside] - clean[beside]).mean() > 0.1
+    assert np.abs(out[beside] - clean[beside]).max() < 0.2 * np.abs(img[beside] - clean[beside]).mean()
+    assert mask[120:, 160].all() and not mask[:80].any() and not mask[:, :20].any()
+
+
+def test_remove_glare_without_a_lobe_is_identity():
+    rng = np.random.default_rng(0)
+    y = _clean_signal() * rng.uniform(0.9, 1.1, (H, W, 1)).astype(np.float32)  # asphalt grain
+    u8 = (_display(y) * 255 + 0.5).astype(np.uint8)
+    out, mask = remove_glare(u8)
+    assert not mask.any()
+    np.testing.assert_array_equal(out, u8)
+
+
+def test_remove_glare_leaves_the_input_alone_and_keeps_dtype():
+    u8 = (_display(_glare_signal(2.5)[0]) * 255 + 0.5).astype(np.uint8)
+    before = u8.copy()
+    out, mask = remove_glare(u8)
+    assert out.dtype == np.uint8 and out.shape == u8.shape and mask.any()
+    np.testing.assert_array_equal(u8, before)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"fine": 4}, "fine: expected an odd window size, got 4. Use 5."),
+        ({"wide": 1}, "wide"),
+        ({"min_lift": 0.0}, "min_lift"),
+        ({"min_excess": 0.0}, "min_excess"),
+        ({"top": 1.0}, "top"),
+        ({"metering_top": -0.1}, "metering_top"),
+        ({"shoulder": -1.0}, "shoulder"),
+    ],
+)
+def test_remove_glare_rejects_bad_parameters(kwargs, match):
+    with pytest.raises(SimroadError, match=match):
+        remove_glare(np.zeros((20, 20, 3), np.uint8), **kwargs)
+
+
+def test_the_sun_colour_is_fitted_on_the_rayleigh_curve():
+    # A lift with the Rayleigh colour of an air mass comes back as it is ...
+    np.testing.assert_allclose(_fit_tint(sun_tint(4.4)), sun_tint(4.4), atol=1e-5)
+    # ... a bluish lift (the veil, a clipped core) is pulled onto the curve: warm, never blue.
+    t = _fit_tint(np.array([0.9, 0.95, 1.0]))
+    np.testing.assert_allclose(t, sun_tint(1.0), atol=1e-6)
+    assert t[0] == 1.0 and t[0] > t[1] > t[2]
+
+
+def test_a_grey_step_is_not_a_sun_lobe():
+    # a grey band with sharp edges (lane paint, a concrete verge) as bright as the lobe
+    y = _clean_signal()
+    y[90:, 150:170] += 0.8
+    u8 = (_display(y) * 255 + 0.5).astype(np.uint8)
+    out, mask = remove_glare(u8)
+    assert not mask.any()
+    np.testing.assert_array_equal(out, u8)
+
+
+@pytest.mark.parametrize("noise", ["clear", "rain", "snow", "shadow"])
+def test_rendered_frames_without_glare_pass_through_bit_identical(noise):
+    frames = collect_frames(scenarios=("highway", "town"), seeds=[7], frames_per_seed=2, every=6, noise=noise)
+    for img in frames.images:
+        out, mask = remove_glare(img)
+        assert not mask.any()
+        np.testing.assert_array_equal(out, img)
+
+
+def test_a_rendered_low_sun_ahead_is_found_and_removed():
+    frames = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
+    img = frames.images[0]
+    out, mask = remove_glare(img)
+    assert mask[100:].mean() > 0.02 and not mask[:70].any()
+    assert out[mask].mean() < img[mask].mean()  # the lobe is gone
