@@ -29,6 +29,7 @@ from simroad.filters.pipeline import (
     parse_filters,
 )
 from simroad.filters.rain_snow import remove_rain_snow
+from simroad.filters.relight import relight_shadows
 from simroad.filters.shadow import ndi, remove_shadows
 
 __all__ = [
@@ -47,6 +48,7 @@ __all__ = [
     "guided_filter",
     "ndi",
     "parse_filters",
+    "relight_shadows",
     "remove_colour_cast",
     "remove_glare",
     "remove_haze",

@@ -35,6 +35,7 @@ from simroad.filters.haze import _haze_planes, remove_haze
 from simroad.filters.highlights import _highlights_planes, remove_highlights
 from simroad.filters.illuminant import _colour_cast_planes, remove_colour_cast
 from simroad.filters.rain_snow import _rain_snow_planes, remove_rain_snow
+from simroad.filters.relight import _relight_planes, relight_shadows
 from simroad.filters.shadow import _shadows_planes, remove_shadows
 from simroad.noise import NOISE_NAMES
 
@@ -62,6 +63,7 @@ _CORES: dict[Callable[..., FilterResult], Callable[..., tuple[Planes, np.ndarray
     remove_highlights: _highlights_planes,
     remove_rain_snow: _rain_snow_planes,
     remove_shadows: _shadows_planes,
+    relight_shadows: _relight_planes,
 }
 
 
@@ -168,7 +170,8 @@ FILTER_VARIANTS = ("improved", "paper")
 #: validation worlds and cost clean frames FPR); the light filter
 #: subtracts the sun's additive lobe instead of applying eq. 27; the shadow filter
 #: first undoes a colour cast of the light beyond clear weather's (the sun and the blue
-#: sky instead of the overcast the detector learnt under), then removes the shadows.
+#: sky instead of the overcast the detector learnt under), then relights the cast
+#: shadows by the frame's one sky/sun ratio in linear light (:mod:`simroad.filters.relight`).
 FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
     {
         spec.name: spec
@@ -177,7 +180,7 @@ FILTER_REGISTRY: Mapping[str, FilterSpec] = MappingProxyType(
                 "shadow",
                 rank=2,
                 paper=(_step(remove_shadows),),
-                improved=(_step(remove_colour_cast), _step(remove_shadows)),
+                improved=(_step(remove_colour_cast), _step(relight_shadows)),
                 weathers=("shadow",),
             ),
             FilterSpec(

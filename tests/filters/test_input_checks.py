@@ -107,6 +107,7 @@ CASES: dict[str, list[Case]] = {
     "remove_highlights": _image_cases(F.remove_highlights, radius=0, iterations=-1),
     "remove_rain_snow": _image_cases(F.remove_rain_snow, eps=0.0, protect=-1),
     "remove_shadows": _image_cases(F.remove_shadows, ring=0, min_ndi=2.0),
+    "relight_shadows": _image_cases(F.relight_shadows, window=2, min_drop=0.0),
     "specular_to_diffuse": [
         *_image_cases(
             lambda image, **kw: F.specular_to_diffuse(image, np.full((12, 12), 0.5), **kw), achromatic_tol=2.0

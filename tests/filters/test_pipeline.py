@@ -59,11 +59,11 @@ def test_old_import_locations_are_the_same_objects():
     assert simroad.experiments.episode.format_filters is format_filters
 
 
-def test_the_improved_shadow_filter_balances_the_light_first():
+def test_the_improved_shadow_filter_balances_the_light_then_relights():
     spec = FILTER_REGISTRY["shadow"]
     assert [s.function.__name__ for s in spec.steps("paper")] == ["remove_shadows"]
-    assert [s.function.__name__ for s in spec.steps("improved")] == ["remove_colour_cast", "remove_shadows"]
-    assert spec.steps("improved")[1] == spec.steps("paper")[0]
+    assert [s.function.__name__ for s in spec.steps("improved")] == ["remove_colour_cast", "relight_shadows"]
+    assert not spec.steps("paper")[0].settings  # the paper's step stays literal
     assert FILTER_REGISTRY["light"].steps("paper") != FILTER_REGISTRY["light"].steps("improved")
 
 

@@ -12,6 +12,7 @@ from simroad import SimroadError
 from simroad.filters import (
     FilterResult,
     apply_filters,
+    relight_shadows,
     remove_glare,
     remove_haze,
     remove_highlights,
@@ -26,6 +27,7 @@ PUBLIC = {
     "light": remove_highlights,
     "glare": remove_glare,
     "haze": remove_haze,
+    "relight": relight_shadows,
 }
 
 
