@@ -125,7 +125,7 @@ def _race(out: Path, grids: tuple[AblationGrid, AblationGrid]) -> list[tuple[int
 def test_two_concurrent_sweeps_on_one_directory_never_duplicate_lose_or_mix_rows(tmp_path, same_grid):
     grids = (GRID_A, GRID_A) if same_grid else (GRID_A, GRID_B)
     locked = 0
-    for trial in range(20):
+    for trial in range(12):
         out = tmp_path / f"t{trial}"
         outcomes = _race(out, grids)
         assert not [o for o in outcomes if o[1] == "crash"], outcomes
@@ -146,7 +146,7 @@ def test_two_concurrent_sweeps_on_one_directory_never_duplicate_lose_or_mix_rows
         assert bad == [] and len((out / "results.jsonl").read_text().splitlines()) == len(rows)
         assert sorted(cell_key(r) for r in rows) == sorted(cell_key(s) for s in winner.specs())
         assert not (out / LOCK_NAME).exists()
-    assert locked >= 10  # the trials did overlap
+    assert locked >= 6  # the trials did overlap
 
 
 # --- Ctrl-C twice --------------------------------------------------------------------------------
