@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_int_in_range
+from simroad.noise.radiometry import GAMMA
 
 __all__ = [
     "FILTER_DTYPES",
@@ -132,3 +133,23 @@ def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
         slice(max(0, rows[0] - margin), min(h, rows[-1] + 1 + margin)),
         slice(max(0, cols[0] - margin), min(w, cols[-1] + 1 + margin)),
     )
+
+
+# -------------------------------------------- the camera's response, undone and redone
+# The forward model is simroad.camera's sensor: the response's shoulder
+# ``z = (1 + k) y / (1 + k y)`` on the linear signal ``y`` (``response_curve``), then the
+# display encoding ``z ** (1 / GAMMA)`` of simroad.noise.radiometry (``linear_to_srgb``).
+# Filters that reason in linear light (glare, shadows) invert it here.
+
+
+def camera_to_linear(p: np.ndarray, shoulder: float) -> np.ndarray:
+    """Display value in [0, 1] -> the camera's linear signal: encoding undone, shoulder undone (float32)."""
+    z = cv2.pow(np.ascontiguousarray(p, dtype=np.float32), GAMMA)
+    return (z / (np.float32(1.0 + shoulder) - np.float32(shoulder) * z)).astype(np.float32)
+
+
+def linear_to_camera(y: np.ndarray, shoulder: float) -> np.ndarray:
+    """Inverse of :func:`camera_to_linear`: the response's shoulder, then the encoding (float32, ``y`` clipped to [0, 1])."""
+    y = np.clip(y, 0.0, 1.0).astype(np.float32)
+    z = np.float32(1.0 + shoulder) * y / (np.float32(1.0) + np.float32(shoulder) * y)
+    return cv2.pow(z, 1.0 / GAMMA).astype(np.float32)

@@ -22,10 +22,12 @@ from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
+    camera_to_linear,
     check_filter_image,
     check_odd_size,
     crop_box,
     from_planes,
+    linear_to_camera,
     to_planes,
 )
 
@@ -35,20 +37,6 @@ _SCALE = 4  # the lobe is estimated on an image this many times smaller
 _MIN_TINT = 0.2  # smallest relative channel of the sun's colour (Rayleigh at 5 degrees: ~0.45)
 _FLANK = (0.3, 0.7)  # the lobe's flank, as fractions of its peak lift, gives its colour
 _MAX_GAIN = 4.0  # largest re-exposure, in linear gain
-
-
-def _decode(p: np.ndarray, shoulder: float) -> np.ndarray:
-    """Display value in [0, 1] -> the camera's linear signal (sRGB decoded, shoulder undone)."""
-    z = np.where(p <= 0.04045, p * np.float32(1 / 12.92), cv2.pow((p + 0.055) * np.float32(1 / 1.055), 2.4))
-    return (z / (np.float32(1.0 + shoulder) - np.float32(shoulder) * z)).astype(np.float32)
-
-
-def _encode(y: np.ndarray, shoulder: float) -> np.ndarray:
-    """Inverse of :func:`_decode`: the response curve's shoulder, then sRGB."""
-    y = np.clip(y, 0.0, 1.0)
-    z = np.float32(1.0 + shoulder) * y / (np.float32(1.0) + np.float32(shoulder) * y)
-    hi = np.float32(1.055) * cv2.pow(z, 1 / 2.4) - np.float32(0.055)
-    return np.where(z <= 0.0031308, z * np.float32(12.92), hi).astype(np.float32)
 
 
 _TAU_RGB = np.array([0.05, 0.10, 0.23])  # Rayleigh optical depth of the clear atmosphere at ~620, 550, 460 nm
@@ -178,7 +166,7 @@ def _glare_planes(
     sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
     small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
     wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
-    found = _lobe([_decode(p, shoulder) for p in small], fine, wide_small, min_lift)
+    found = _lobe([camera_to_linear(p, shoulder) for p in small], fine, wide_small, min_lift)
     if found is None:
         return [p.copy() for p in planes], np.zeros((h, w), bool)  # no sun's lobe: identity
     amount, t = found
@@ -187,7 +175,7 @@ def _glare_planes(
     lobe = amount > min_excess
     clipped = _clipped([p[r0:] for p in planes], lobe)
     mask[r0:] = lobe | clipped
-    lin = [_decode(p, shoulder) for p in planes]
+    lin = [camera_to_linear(p, shoulder) for p in planes]
     m0 = min(int(metering_top * h), h - 1)
     before = sum(float(x[m0:].mean()) for x in lin)
     for c in range(3):
@@ -198,7 +186,7 @@ def _glare_planes(
     after = sum(float(x[m0:].mean()) for x in lin)
     # The camera metered the lobe: without it, it would have exposed by before/after more.
     gain = np.float32(min(before / max(after, 1e-6), _MAX_GAIN))
-    return [_encode(x * gain, shoulder) for x in lin], mask
+    return [linear_to_camera(x * gain, shoulder) for x in lin], mask
 
 
 def remove_glare(

@@ -55,7 +55,15 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range, check_int_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
+from simroad.filters._common import (
+    FilterResult,
+    Planes,
+    camera_to_linear,
+    check_filter_image,
+    from_planes,
+    linear_to_camera,
+    to_planes,
+)
 
 __all__ = ["relight_shadows"]
 
@@ -71,24 +79,9 @@ _FIRST_LIT = 0.8  # first guess of the lit: within this many shadow steps of the
 _BLUER = 0.25  # a shadow edge keeps at least this much more of its blue than of its red (log)
 
 
-def _srgb_decode(x: np.ndarray) -> np.ndarray:
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
-
-
-def _srgb_encode(y: np.ndarray) -> np.ndarray:
-    return np.where(y <= 0.0031308, 12.92 * y, 1.055 * np.power(np.maximum(y, 0.0), 1.0 / 2.4) - 0.055)
-
-
 def _linear_table(shoulder: float) -> np.ndarray:
-    """Encoded level (``_LEVELS`` steps of [0, 1]) -> linear signal: sRGB decoded, then
-    the shoulder ``(1 + k) y / (1 + k y)`` inverted."""
-    r = _srgb_decode(np.linspace(0.0, 1.0, _LEVELS))
-    return (r / (1.0 + shoulder - shoulder * r)).astype(np.float32)
-
-
-def _encode(y: np.ndarray, shoulder: float) -> np.ndarray:
-    y = np.clip(y, 0.0, 1.0)
-    return _srgb_encode((1.0 + shoulder) * y / (1.0 + shoulder * y)).astype(np.float32)
+    """Encoded level (``_LEVELS`` steps of [0, 1]) -> the camera's linear signal."""
+    return camera_to_linear(np.linspace(0.0, 1.0, _LEVELS, dtype=np.float32), shoulder)
 
 
 def _linearise(p: np.ndarray, table: np.ndarray) -> np.ndarray:
@@ -197,7 +190,7 @@ def _relight_planes(
     a = full[sel]
     out = [p.copy() for p in planes]
     for c, k in enumerate(np.exp(d).astype(np.float32)):
-        out[c][top : top + 2 * hs][sel] = _encode(lin[c][sel] / (1.0 - a * (1.0 - k)), shoulder)
+        out[c][top : top + 2 * hs][sel] = linear_to_camera(lin[c][sel] / (1.0 - a * (1.0 - k)), shoulder)
     mask = np.zeros((h, w), bool)
     mask[top : top + 2 * hs] = sel
     return out, mask

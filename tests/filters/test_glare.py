@@ -8,7 +8,9 @@ import pytest
 from simroad import SimroadError
 from simroad.experiments.frames import collect_frames
 from simroad.filters import remove_glare
-from simroad.filters.glare import _decode, _encode, _fit_tint, sun_tint
+from simroad.filters._common import camera_to_linear as _decode
+from simroad.filters._common import linear_to_camera as _encode
+from simroad.filters.glare import _fit_tint, sun_tint
 
 H, W = 180, 320
 SUN = np.array([1.0, 0.8, 0.45], np.float32)  # Rayleigh-reddened sun at ~13 degrees
@@ -38,6 +40,20 @@ def _glare_signal(peak: float) -> tuple[np.ndarray, np.ndarray]:
 
 def _display(y: np.ndarray) -> np.ndarray:
     return np.stack([_encode(y[..., c], 1.0) for c in range(3)], axis=-1)
+
+
+def test_decode_inverts_the_sensors_response():
+    from simroad.camera._sensor_ops import adc_response_lut
+
+    full = 2**12 - 1
+    table = adc_response_lut(12, 1.0, 1.0)  # the sensor's digital number -> 8-bit output
+    d = np.arange(0, full, 7)
+    code = table[d].astype(np.int64)
+    back = _decode(code.astype(np.float32) / 255.0, 1.0)
+    # within the output's 8-bit step there (the widest of its two sides: large in the shoulder)
+    up = _decode(np.minimum(code + 1, 255).astype(np.float32) / 255.0, 1.0) - back
+    down = back - _decode(np.maximum(code - 1, 0).astype(np.float32) / 255.0, 1.0)
+    assert np.all(np.abs(back - d / full) <= np.maximum(up, down) + 1e-6)
 
 
 def test_decode_inverts_encode():
