@@ -8,7 +8,7 @@ the sun's colour ``t`` (warm at a low sun), so it lifts channel ``c`` by ``B t_c
 What the camera then does matters as much as the lobe: its auto-exposure meters the
 lower part of the frame, so a bright lobe there lowers the exposure and the road
 *beside* the lobe turns darker than the detector has ever seen it. The filter
-therefore works in the camera's linear signal (sRGB decoded, the response curve's
+therefore works in the camera's linear signal (display gamma 2.2 decoded, the response curve's
 shoulder undone), removes the lobe, and re-exposes the frame as the camera would
 have metered it without the lobe.
 """
@@ -204,7 +204,7 @@ def remove_glare(
 
     The improved light filter (the paper's eq. 27 cannot act on grey asphalt).
 
-    1. Decode the frame to the camera's linear signal: sRGB decoding, then the inverse
+    1. Decode the frame to the camera's linear signal: the display encoding (gamma 2.2) undone, then the inverse
        of the response curve's shoulder ``z = (1 + k) y / (1 + k y)``
        (:mod:`simroad.camera.sensor`).
     2. On the rows from ``top`` down (the ground), at quarter resolution, open each
@@ -241,7 +241,7 @@ def remove_glare(
         [0, 1) (the sensor's ``ae_roi_top``).
     shoulder : float, optional
         The camera response curve's shoulder ``k``, in [0, 20] (the sensor's
-        ``tone_shoulder``; 0 for a plain sRGB frame).
+        ``tone_shoulder``; 0 for a plain gamma-2.2 frame).
 
     Returns
     -------

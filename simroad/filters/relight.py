@@ -9,7 +9,7 @@ alone, so it is *one* vector for every shadow on the ground of a frame, whatever
 material; the sky is bluer than the sun, so ``k_R < k_G < k_B``. In log linear light a
 shadow therefore adds the same vector ``d = log k`` to every pixel it covers (a
 penumbra, a fraction ``α`` of it: ``log(1 − α (1 − k))``). The camera's response (a
-highlight shoulder and the sRGB encoding, :mod:`simroad.camera.sensor`) is undone
+highlight shoulder and the display encoding, gamma 2.2, :mod:`simroad.camera.sensor`) is undone
 first: ratios are only constant in linear light. Vignetting and the white balance are
 per-pixel or per-channel gains and cancel in the ratios.
 
@@ -214,7 +214,7 @@ def relight_shadows(
     Parameters
     ----------
     image : ndarray, (H, W, 3), uint8 or float32/float64 in [0, 1]
-        RGB image from a camera with simroad's response (sRGB with a shoulder).
+        RGB image from a camera with simroad's response (gamma 2.2 with a shoulder).
     shoulder : float, optional
         Strength ``k`` of the camera response's shoulder ``(1 + k) y / (1 + k y)``
         (:class:`simroad.camera.sensor.SensorParams` ``tone_shoulder``), in [0, 20].
