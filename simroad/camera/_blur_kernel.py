@@ -218,3 +218,47 @@ def radial_blur_depth(img, depth, face_id, flat_faces, inv_cos, travel, cx, foe_
         np.float32(max_step),
     )
     return _run_levels(img, plan, foe_row)
+
+
+@njit(cache=True, nogil=True)
+def _rows_read(plan, h):
+    """Which rows the levels read: for each planned pixel, the rows between its own
+    and its longest tap's (2**(n - 1) tap spacings along the flow), one more each side."""
+    ns, fys, row_ptr = plan[1], plan[3], plan[4]
+    need = np.zeros(h, np.bool_)
+    for y in range(h):
+        lo, hi = y, y
+        for k in range(row_ptr[y], row_ptr[y + 1]):
+            end = y + np.float64(1 << (ns[k] - 1)) * np.float64(fys[k])
+            lo = min(lo, int(math.floor(end)))
+            hi = max(hi, int(math.floor(end)) + 1)
+        if row_ptr[y + 1] > row_ptr[y]:
+            for r in range(max(lo - 1, 0), min(hi + 2, h)):
+                need[r] = True
+    return need
+
+
+@njit(cache=True, nogil=True, fastmath=_FM)
+def radial_blur_frame(frame, table, img, depth, face_id, inv_cos, travel, cx, foe_row, max_step):
+    """:func:`radial_blur_depth` with flat faces, from the 8-bit ``frame`` (uint8
+    (H, W, 3)): only the rows the blur reads are decoded (through ``table``) into
+    ``img``, the rest of ``img`` is left as it was. Returns the planned pixels row by
+    row, ``(xs, row_ptr)``: ``img`` differs from the decoded frame only there (see
+    :func:`simroad.camera._sensor_kernel.expose_frame`)."""
+    plan = _plan_depth(
+        depth,
+        face_id,
+        True,
+        inv_cos,
+        np.float32(travel),
+        np.float32(cx),
+        np.float32(foe_row),
+        np.float32(max_step),
+    )
+    h = frame.shape[0]
+    need = _rows_read(plan, h)
+    for y in range(h):
+        if need[y]:
+            decode(frame[y], table, img[y])
+    _run_levels(img, plan, foe_row)
+    return plan[0], plan[4]

@@ -79,16 +79,39 @@ def _lookup_row(dn: np.ndarray, table: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
+def _gain_row(vig: np.ndarray, wb: np.ndarray, out: np.ndarray) -> None:
+    """One row's relative gain per channel value: ``vig[x] * wb[c]`` (float32), the
+    product numpy forms for the whole (H, W, 3) map, one row at a time."""
+    for x in range(vig.size):
+        for c in range(3):
+            out[3 * x + c] = vig[x] * wb[c]
+
+
+@njit(cache=True, nogil=True)
+def _patch_row(buf: np.ndarray, lin: np.ndarray, xs: np.ndarray, k0: int, k1: int) -> None:
+    """Overwrite the row's values of the pixels ``xs[k0:k1]`` with ``lin``'s (the
+    motion-blurred ones; every other pixel of ``lin`` is the decoded frame's)."""
+    for k in range(k0, k1):
+        x = xs[k]
+        for c in range(3):
+            buf[3 * x + c] = lin[x, c]
+
+
+@njit(cache=True, nogil=True)
 def expose_frame(
     frame: np.ndarray,
     decode: np.ndarray,
-    vig3: np.ndarray,
+    vig: np.ndarray,
+    wb: np.ndarray,
     expo: tuple[float, float],
     field: np.ndarray,
     noise: tuple[int, int, float, float, float],
     table: np.ndarray,
     out: np.ndarray,
-    meter_from: int = 0,
+    meter_from: int,
+    blurred: tuple[np.ndarray, np.ndarray, np.ndarray],
+    gain_rw: np.ndarray,
+    gain: np.ndarray,
 ) -> float:
     """Expose one frame into ``out``; returns the sum of the exposed signal (DN) over
     the rows from ``meter_from`` on (the auto-exposure's metering window).
@@ -99,8 +122,11 @@ def expose_frame(
         The sRGB frame (decoded through ``decode``) or linear radiance; C-contiguous.
     decode : ndarray, float32, (256,)
         Code to linear radiance (unused for a float32 ``frame``).
-    vig3 : ndarray, float32, (H, 3W)
-        Relative illumination per channel value (ones without vignetting).
+    vig : ndarray, float32, (H, W)
+        Relative illumination (ones without vignetting).
+    wb : ndarray, float32, (3,)
+        White-balance gains; the gain of channel ``c`` at pixel ``(y, x)`` is the
+        float32 product ``vig[y, x] * wb[c]``.
     expo : tuple
         ``(scale, full)``: DN per unit linear radiance on the axis, full scale in DN.
     field : ndarray, float32, (H + ph, W + pw, 3)
@@ -114,11 +140,22 @@ def expose_frame(
     out : ndarray, uint8, (H, W, 3)
     meter_from : int
         First row of the metering window.
+    blurred : tuple
+        ``(lin, xs, row_ptr)``: the motion blur's linear frame (float32 (H, W, 3)) and
+        its pixels, row by row (``xs[row_ptr[y]:row_ptr[y + 1]]``, the blur's plan),
+        whose values replace ``frame``'s; ``row_ptr`` of length 1 for none.
+    gain_rw, gain : ndarray, float32, (3W,)
+        Scratch for one row's gains: one buffer, written through ``gain_rw`` and read
+        through ``gain``, a read-only view of it: the exposure loop is compiled for a
+        read-only gain row, the type the rows of a whole-frame map had (a writable one
+        compiles to another order of the vectorised metering sum: a different last bit).
     """
     h, w = frame.shape[0], frame.shape[1]
     scale, full = expo
     oy, ox, sign, k_shot, floor = noise
     noisy = k_shot > 0.0 or floor > 0.0
+    lin, xs, row_ptr = blurred
+    patched = row_ptr.size == h + 1
     flat = frame.reshape(h, 3 * w)
     dst = out.reshape(h, 3 * w)
     buf = np.empty(3 * w, np.float32)
@@ -127,8 +164,11 @@ def expose_frame(
     total = 0.0
     for y in range(h):
         _fill_row(flat[y], decode, buf)
+        if patched and row_ptr[y + 1] > row_ptr[y]:
+            _patch_row(buf, lin[y], xs, row_ptr[y], row_ptr[y + 1])
+        _gain_row(vig[y], wb, gain_rw)
         normal = field[oy + y].reshape(-1)[3 * ox : 3 * ox + 3 * w] if noisy else zeros
-        row_total = _expose_row(buf, vig3[y], scale, full, normal, (sign, k_shot, floor), dn)
+        row_total = _expose_row(buf, gain, scale, full, normal, (sign, k_shot, floor), dn)
         if y >= meter_from:
             total += row_total
         _lookup_row(dn, table, dst[y])

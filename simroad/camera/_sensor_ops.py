@@ -23,9 +23,11 @@ __all__ = [
     "NoiseTile",
     "adc_response_lut",
     "add_noise_dn",
+    "gain_row_buffers",
     "inv_cos_bearing",
     "jpeg_roundtrip",
     "motion_blur_scale",
+    "ones_map",
     "radial_motion_blur",
     "response_curve",
     "vignetting_gain",
@@ -77,6 +79,23 @@ def vignetting_map(height: int, width: int, focal_px: float, cx: float, cy: floa
     gain = ((f2 / (f2 + r2)) ** (exponent / 2.0)).astype(np.float32)
     gain.flags.writeable = False
     return gain
+
+
+@functools.lru_cache(maxsize=4)
+def ones_map(h: int, w: int) -> np.ndarray:
+    """The relative illumination without vignetting, float32 (H, W), read-only."""
+    ones = np.ones((h, w), np.float32)
+    ones.flags.writeable = False
+    return ones
+
+
+def gain_row_buffers(w: int) -> tuple[np.ndarray, np.ndarray]:
+    """A row buffer of 3W float32 and a read-only view of it (see
+    :func:`simroad.camera._sensor_kernel.expose_frame`)."""
+    rw = np.empty(3 * w, np.float32)
+    ro = rw.view()
+    ro.flags.writeable = False
+    return rw, ro
 
 
 # ------------------------------------------------------------------ motion blur

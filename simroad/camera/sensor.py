@@ -29,18 +29,21 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
-from simroad.camera._blur_kernel import decode, radial_blur_depth
+from simroad.camera._blur_kernel import decode, radial_blur_depth, radial_blur_frame
 from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
     adc_response_lut,
     add_noise_dn,
+    gain_row_buffers,
     inv_cos_bearing,
     jpeg_roundtrip,
     motion_blur_scale,
+    ones_map,
     radial_motion_blur,
     response_curve,
     vignetting_gain,
+    vignetting_map,
 )
 from simroad.camera.geometry import PinholeCamera
 from simroad.noise.radiometry import srgb_to_linear
@@ -272,35 +275,31 @@ def apply_sensor(
     fx, cx, cy = float(camera.K[0, 0]), float(camera.K[0, 2]), float(camera.K[1, 2])
     gain = 2.0**ev
     frame = np.ascontiguousarray(rgb)
+    blurred: tuple[np.ndarray, np.ndarray, np.ndarray] = _NOT_BLURRED
     if params.motion_blur:
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
-            d = camera.depth if depth is None else depth
-            if face_id is None:
-                ids, flat = _all_pixels(h, w), False
+            d = np.ascontiguousarray(camera.depth if depth is None else depth, np.float32)
+            lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
+            foe, inv_cos = float(camera.horizon_row), inv_cos_bearing(w, fx, cx)
+            if face_id is None:  # every pixel blurred: the whole frame is linear
+                decode(frame, _DECODE_LUT, lin)
+                radial_blur_depth(lin, d, _all_pixels(h, w), False, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX)
+                frame = lin
             else:
-                ids, flat = np.asarray(face_id), True
+                ids = np.asarray(face_id)
                 if ids.shape != (h, w) or ids.dtype != np.int32:
                     raise SimroadError(
                         f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
                     )
-            lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
-            decode(frame, _DECODE_LUT, lin)
-            radial_blur_depth(
-                lin,
-                np.ascontiguousarray(d, np.float32),
-                np.ascontiguousarray(ids),
-                flat,
-                inv_cos_bearing(w, fx, cx),
-                travel,
-                cx,
-                float(camera.horizon_row),
-                MOTION_BLUR_STEP_PX,
-            )
-            frame = lin
+                xs, row_ptr = radial_blur_frame(
+                    frame, _DECODE_LUT, lin, d, np.ascontiguousarray(ids), inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
+                )
+                blurred = (lin, xs, row_ptr)
     full = float(2**params.adc_bits - 1)
-    wb = None if white_balance is None else tuple(float(g) for g in white_balance)
-    vig = _relative_gain(h, w, fx, cx, cy, params.vignetting_exponent if params.vignetting else None, wb)
+    wb = _NEUTRAL if white_balance is None else np.asarray(white_balance, np.float32).reshape(3)
+    exponent = params.vignetting_exponent if params.vignetting else None
+    vig = vignetting_map(h, w, fx, cx, cy, exponent) if exponent is not None else ones_map(h, w)
     k = full / params.full_well_e
     field, oy, ox, sign = _NO_NOISE, 0, 0, 1.0
     if params.shot_noise or params.read_noise_e > 0.0:
@@ -317,12 +316,15 @@ def apply_sensor(
         frame,
         _DECODE_LUT,
         vig,
+        wb,
         (gain * full, full),
         field,
         (oy, ox, sign, k if params.shot_noise else 0.0, (k * params.read_noise_e) ** 2),
         adc_response_lut(params.adc_bits, params.tone_shoulder, params.gamma),
         out,
         top,
+        blurred,
+        *gain_row_buffers(w),
     )
     measured = total / ((h - top) * w * 3 * full)  # the mean over the metering window
     if params.jpeg_quality is not None:
@@ -346,22 +348,10 @@ def _all_pixels(h: int, w: int) -> np.ndarray:
 _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
 
 
-@functools.lru_cache(maxsize=16)
-def _relative_gain(
-    h: int, w: int, fx: float, cx: float, cy: float, exponent: float | None, wb: tuple[float, ...] | None
-) -> np.ndarray:
-    """Vignetting times the white-balance gains per channel value, float32 (H, 3W),
-    read-only: computed once per camera and episode, not per frame."""
-    gain = (
-        vignetting_gain(h, w, fx, cx, cy, exponent).reshape(h, 3 * w)
-        if exponent is not None
-        else np.ones((h, 3 * w), np.float32)
-    )
-    if wb is not None:
-        gain = gain * np.tile(np.asarray(wb, np.float32), w)[None, :]
-    gain = np.ascontiguousarray(gain, dtype=np.float32)
-    gain.flags.writeable = False
-    return gain
+_NEUTRAL = np.ones(3, np.float32)
+_NO_PLAN = np.zeros(1, np.int64)
+#: No motion blur: ``expose_frame``'s ``blurred`` patches nothing.
+_NOT_BLURRED = (np.zeros((1, 1, 3), np.float32), np.zeros(1, np.int32), _NO_PLAN)
 
 
 class Sensor:
