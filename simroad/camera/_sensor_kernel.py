@@ -28,6 +28,7 @@ from numba.extending import overload
 __all__ = ["expose_frame"]
 
 _FM = {"reassoc", "contract", "nsz", "arcp"}  # no "nnan"/"ninf" assumptions
+_METER_ONE = 256.0  # the metering sum's fixed point: 1/256 DN
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
@@ -40,16 +41,22 @@ def _expose_row(
     noise: tuple[float, float, float],
     dn: np.ndarray,
 ) -> float:
-    """Exposure, clip at the full well, EMVA 1288 noise, rounding and saturation of one row."""
+    """Exposure, clip at the full well, EMVA 1288 noise, rounding and saturation of one row.
+
+    Returns the row's exposed signal summed in fixed point (1/256 DN, int64): integer
+    addition is associative, so the sum is the same whatever order the vectorised loop
+    adds in (a float sum with ``reassoc`` was not: a freshly compiled kernel and one
+    loaded from numba's cache differed in the last bit, and the auto-exposure with it).
+    """
     sign, k_shot, floor = noise
     g, top, ks, fl, sg = np.float32(scale), np.float32(cap), np.float32(k_shot), np.float32(floor), np.float32(sign)
-    total = np.float32(0.0)
+    total = np.int64(0)
     for i in range(buf.size):
         s = min(buf[i] * vig[i] * g, top)
-        total += s
+        total += np.int64(s * np.float32(_METER_ONE))
         s += math.sqrt(ks * s + fl) * sg * normal[i]
         dn[i] = np.int32(min(max(s, np.float32(0.0)), top) + np.float32(0.5))
-    return total  # type: ignore[return-value]  # a float32 scalar inside numba
+    return total  # type: ignore[return-value]  # an int64 scalar inside numba
 
 
 def _fill_row(src: np.ndarray, decode: np.ndarray, buf: np.ndarray) -> None:
@@ -146,9 +153,8 @@ def expose_frame(
         whose values replace ``frame``'s; ``row_ptr`` of length 1 for none.
     gain_rw, gain : ndarray, float32, (3W,)
         Scratch for one row's gains: one buffer, written through ``gain_rw`` and read
-        through ``gain``, a read-only view of it: the exposure loop is compiled for a
-        read-only gain row, the type the rows of a whole-frame map had (a writable one
-        compiles to another order of the vectorised metering sum: a different last bit).
+        through ``gain``, a read-only view of it (the exposure loop is compiled for a
+        read-only gain row, the type the rows of a whole-frame map had).
     """
     h, w = frame.shape[0], frame.shape[1]
     scale, full = expo
@@ -161,7 +167,7 @@ def expose_frame(
     buf = np.empty(3 * w, np.float32)
     dn = np.empty(3 * w, np.int32)
     zeros = np.zeros(3 * w, np.float32)
-    total = 0.0
+    total = np.int64(0)
     for y in range(h):
         _fill_row(flat[y], decode, buf)
         if patched and row_ptr[y + 1] > row_ptr[y]:
@@ -172,4 +178,4 @@ def expose_frame(
         if y >= meter_from:
             total += row_total
         _lookup_row(dn, table, dst[y])
-    return total
+    return total / _METER_ONE
