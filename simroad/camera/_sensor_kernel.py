@@ -40,7 +40,7 @@ def _expose_row(
     normal: np.ndarray,
     noise: tuple[float, float, float],
     dn: np.ndarray,
-) -> float:
+) -> int:
     """Exposure, clip at the full well, EMVA 1288 noise, rounding and saturation of one row.
 
     Returns the row's exposed signal summed in fixed point (1/256 DN, int64): integer
@@ -56,7 +56,7 @@ def _expose_row(
         total += np.int64(s * np.float32(_METER_ONE))
         s += math.sqrt(ks * s + fl) * sg * normal[i]
         dn[i] = np.int32(min(max(s, np.float32(0.0)), top) + np.float32(0.5))
-    return total  # type: ignore[return-value]  # an int64 scalar inside numba
+    return total  # type: ignore[return-value]  # an int64 scalar
 
 
 def _fill_row(src: np.ndarray, decode: np.ndarray, buf: np.ndarray) -> None:
