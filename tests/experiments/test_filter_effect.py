@@ -6,6 +6,7 @@ import pytest
 
 from simroad import SimroadError
 from simroad.detector import RoadDetector
+from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.filter_effect import filter_effect, filter_effect_table, format_filter_effect
 
 
@@ -14,25 +15,15 @@ def cache():
     return {}
 
 
-_GLARE_ISSUE_14 = pytest.mark.xfail(
-    strict=True,
-    reason="issue 14's world: the camera's auto-exposure meters the road and its tone curve rolls off the "
-    "highlights, so strong glare rarely saturates; the improved light filter looks for a lobe connected to "
-    "saturated pixels and finds none (it changes no pixel). Making the filters work with a real camera is issue 16.",
-)
-
-
-@_GLARE_ISSUE_14
 def test_light_filter_lowers_fnr_plus_fpr_under_strong_glare(cache):
     row = filter_effect("glare", ["light"], seeds=(110, 111), frames=3, severity=0.7, cache=cache)
-    assert row["frames"] == 2 * 3 * 3  # seeds x scenarios x frames
+    assert row["frames"] == 2 * 3 * len(SCENARIO_NAMES)  # seeds x frames x scenarios
     off, on = row["without"], row["with"]
     assert off["fnr"] > 0.2  # glare really hurts the unfiltered detector
     assert on["fnr"] + on["fpr"] < off["fnr"] + off["fpr"]
     assert row["better"] is True
 
 
-@_GLARE_ISSUE_14
 def test_paper_light_filter_leaves_grey_asphalt_glare_in_place(cache):
     """Eq. 27 cannot separate white light from grey asphalt: the paper's variant gains nothing."""
     paper = filter_effect(

@@ -32,12 +32,12 @@ _RESETS = (
 import json, simroad
 from simroad.envs import RoadCamEnv
 env = RoadCamEnv(scenario="winding", noise="rain+shadow", severity=0.7)
-for seed in range(20):  # warm-up: caches, lazily imported modules, allocator pools
+for seed in range(40):  # warm-up: caches, lazily imported modules, allocator pools
     env.reset(seed=seed)
 # Each world has its own size (road length, raster tiles), so RSS after one reset
 # swings by a few per cent: compare the peak of the first and the last 40 resets.
 rss = []
-for seed in range(20, 180):
+for seed in range(40, 200):
     env.reset(seed=seed)
     rss.append(rss_mb())
 print(json.dumps({"before": max(rss[:40]), "after": max(rss[-40:])}))
