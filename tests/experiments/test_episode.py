@@ -32,7 +32,8 @@ def test_short_headless_episode_of_every_scenario_and_noise(scenario, noise):
     )
     rec = run_episode(spec)
     assert tuple(rec) == RECORD_KEYS
-    assert rec["steps"] == SHORT and rec["noise"] == noise
+    # a car blinded by the weather may leave the road (the episode then ends early)
+    assert 1 <= rec["steps"] <= SHORT and rec["noise"] == noise
     assert 0.0 <= rec["fnr"] <= 1.0 and 0.0 <= rec["fpr"] <= 1.0
     json.dumps(rec, allow_nan=False)  # strict JSON: no NaN or Infinity
 
