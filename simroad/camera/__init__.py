@@ -1,7 +1,8 @@
 """The dashboard camera: world raster, pinhole geometry, rendering with ground truth."""
 
+from simroad.camera.bev import render_bev
 from simroad.camera.geometry import CameraConfig, PinholeCamera
-from simroad.camera.render import CameraRenderer, Frame, VehicleBox, render_bev
+from simroad.camera.render import CameraRenderer, Frame, VehicleBox
 from simroad.camera.sensor import Sensor, SensorParams
 from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE, WorldRaster
 
