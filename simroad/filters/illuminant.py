@@ -93,8 +93,9 @@ def _cast_gains(planes: Planes, rows: float, box: Any, target: tuple[float, floa
 def _colour_cast_planes(
     planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float
 ) -> tuple[Planes, np.ndarray]:
-    """Core of :func:`remove_colour_cast` on float32 planes; (new planes, mask of changed pixels)."""
-    gains = _cast_gains(planes, rows, _box(chromaticity), _finite_pair("target", target), gamma)
+    """Core of :func:`remove_colour_cast` on float32 planes (options already checked, as for
+    every filter core); (new planes, mask of changed pixels)."""
+    gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:
         return [p.copy() for p in planes], np.zeros(planes[0].shape, bool)
     out = []
