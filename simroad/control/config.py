@@ -69,7 +69,11 @@ class ControllerConfig:
         last trusted row) is a car's side, not the edge.
     path_jump_max_m : float, in (0, 20] m
         Temporal consistency: centre points farther than this from the previous
-        frame's path are dropped (when two or more stay).
+        frame's path are dropped.
+    coast_frames : int, in [0, 100]
+        Frames for which the previous path is held (and the car brakes) when no
+        centre point of the mask lies within ``path_jump_max_m`` of it; after them
+        the path is read from the mask alone.
     quadratic_min_points : int, in [3, 50]
     quadratic_min_span_m : float, in [0, 100] m
         The path is a quadratic when at least this many centre points span at least
@@ -113,6 +117,7 @@ class ControllerConfig:
     occlusion_tolerance_m: float = 0.6
     occlusion_tolerance_per_m: float = 0.05
     path_jump_max_m: float = 1.0
+    coast_frames: int = 2
     quadratic_min_points: int = 4
     quadratic_min_span_m: float = 4.0
     line_min_span_m: float = 1.0
@@ -154,6 +159,7 @@ class ControllerConfig:
             check_in_range(name, getattr(self, name), low, high, unit=unit, low_inclusive=low_inclusive)
         check_int_in_range("quadratic_min_points", self.quadratic_min_points, 3, 50)
         check_int_in_range("fit_rounds", self.fit_rounds, 1, 20)
+        check_int_in_range("coast_frames", self.coast_frames, 0, 100)
         if self.min_lookahead_m > self.max_lookahead_m:
             raise SimroadError(
                 f"min_lookahead_m: expected at most max_lookahead_m={self.max_lookahead_m:g} m, "

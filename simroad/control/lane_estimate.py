@@ -98,14 +98,44 @@ class LaneEstimator:
         self.lane_from_right: int | None = None
         self.lanes: int | None = None
         self._prev_coeffs: np.ndarray | None = None
+        self._misses = 0
 
     def remember(self, est: PathEstimate) -> None:
         """Take ``est`` as the previous frame's path when reading the next mask."""
         self._prev_coeffs = est.coeffs
 
     def read_path(self, mask: np.ndarray) -> PathEstimate:
-        """Measure road edges on the look-ahead rows and the ego-lane centre line."""
+        """Measure road edges on the look-ahead rows and the ego-lane centre line.
+
+        A track with a validation gate: centre points farther than ``path_jump_max_m``
+        from the previous path are not the lane (a misread frame, a junction's mouth).
+        When none is left, the previous path is held (no points, no free road: the
+        car brakes) for up to ``coast_frames`` frames; after that the path is read
+        from the mask alone, as at the start (one bad frame must not lock the car on
+        a wrong path for the rest of the episode).
+        """
         mask = check_mask("mask", mask, shape=(self.camera.config.height, self.camera.config.width))
+        est = self._read(mask)
+        prior = self._prev_coeffs
+        if prior is None or (len(est.x_m) and self._within_gate(est.coeffs, prior)):
+            self._misses = 0
+            return est
+        est = PathEstimate(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), 0.0, prior)
+        self._misses += 1
+        if self._misses <= self.config.coast_frames:
+            return est
+        self._misses = 0
+        self._prev_coeffs = None  # re-acquire
+        return self._read(mask)
+
+    def _within_gate(self, coeffs: np.ndarray, prior: np.ndarray) -> bool:
+        """Whether the path at the nearest look-ahead row is within ``path_jump_max_m``
+        of the previous path (centre points only far ahead can fit a path that is
+        wrong at the car)."""
+        x0 = float(self._x[0])
+        return abs(float(np.polyval(coeffs, x0) - np.polyval(prior, x0))) <= self.config.path_jump_max_m
+
+    def _read(self, mask: np.ndarray) -> PathEstimate:
         W = mask.shape[1]
         xs: list[float] = []
         rights: list[float] = []
@@ -208,8 +238,7 @@ class LaneEstimator:
         arr = np.asarray(sorted(pts))
         if self._prev_coeffs is not None:  # temporal consistency: the lane moves little per frame
             near = np.abs(arr[:, 1] - np.polyval(self._prev_coeffs, arr[:, 0])) < self.config.path_jump_max_m
-            if near.sum() >= 2 or self.config.edge_steps_m:
-                arr = arr[near]  # with edge steps, a far point is a junction's mouth: never trusted
+            arr = arr[near]
         if not len(arr):
             return np.zeros(0), np.zeros(0)
         return arr[:, 0], arr[:, 1]

@@ -36,6 +36,7 @@ PINNED = {
     "occlusion_tolerance_m": 0.6,
     "occlusion_tolerance_per_m": 0.05,
     "path_jump_max_m": 1.0,
+    "coast_frames": 2,
     "quadratic_min_points": 4,
     "quadratic_min_span_m": 4.0,
     "line_min_span_m": 1.0,

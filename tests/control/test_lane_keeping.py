@@ -64,6 +64,32 @@ def test_controller_brakes_for_a_car_in_its_corridor_not_beside_it():
             assert est.free_road_m > 40.0
 
 
+def test_a_misread_frame_is_held_off_then_the_road_is_reacquired():
+    """The gate: a mask whose road lies 4.5 m farther left is not the lane -- the previous
+    path is held (and the car brakes) for ``coast_frames`` frames; a road that really
+    moved is taken from the mask alone after that, and good frames lock on again."""
+    env = RoadCamEnv(scenario="highway", longitudinal=True, traffic=False)
+    _, info = env.reset(seed=0)
+    ego_y = env.camera.ego_ground[..., 1]
+    good = info["road_mask"]
+    cfg = ControllerConfig(lane_width_m=4.0, target_speed_m_s=25.0, coast_frames=2)
+    ctl = MaskLaneKeeper(env.camera, cfg)
+    centre = float(np.polyval(ctl.read_path(good).coeffs, 10.0))
+    ctl.estimator.remember(ctl.estimator.read_path(good))
+    off = env.camera.ground_valid & (ego_y > -10.5) & (ego_y < -2.5)  # the road 4.5 m farther left
+    for frame in range(2):  # held: the old path, no free road
+        action = ctl.act(off, 25.0)
+        assert len(ctl.last.x_m) == 0 and ctl.last.free_road_m == 0.0, frame
+        assert abs(np.polyval(ctl.last.coeffs, 10.0) - centre) < 1e-9 and action[1] < -0.5
+    ctl.act(off, 25.0)  # the third frame in a row: the road moved, take it
+    assert len(ctl.last.x_m) >= 3 and np.polyval(ctl.last.coeffs, 10.0) < centre - 3.0
+    ctl.reset()
+    ctl.act(good, 25.0)
+    ctl.act(off, 25.0)  # one misread frame between good ones changes nothing
+    ctl.act(good, 25.0)
+    assert len(ctl.last.x_m) >= 3 and abs(np.polyval(ctl.last.coeffs, 10.0) - centre) < 0.2
+
+
 def test_read_path_matches_the_true_lane_centre_on_a_curve():
     env = RoadCamEnv(scenario="winding", longitudinal=True, traffic=False)
     _obs, info = env.reset(seed=4)
