@@ -33,7 +33,7 @@ from simroad._validation import (
     normalize_rng,
 )
 from simroad.detector.features import N_FEATURES, _features_f
-from simroad.detector.growth import GROW_TOLERANCE, _as_uint8, _grow
+from simroad.detector.growth import GROW_TOLERANCE, _across_lobe, _as_uint8, _grow
 from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
@@ -259,8 +259,13 @@ class RoadDetector(BaseEstimator):
             mask = _ego_component(mask)
             lobe = acted.get("light") if variant == "improved" else None
             if lobe is not None and lobe.any():  # not §III: the road through the glare lobe the filter removed
-                seeds = mask | lobe if ground is None else mask | (lobe & ground)  # the ego stands on road
-                mask = _ego_component(mask | _grow(_as_uint8(image), seeds, ground, GROW_TOLERANCE, 2))
+                # Under a sun's lobe the colour classifier fails beside it (the exposure
+                # dropped; lit verges look like road): the road is what grows from the
+                # ego's road across smooth colour, and the lobe where road lies both sides.
+                lobe = lobe if ground is None else lobe & ground
+                grown = _grow(_as_uint8(image), mask | lobe, ground, GROW_TOLERANCE, 2)
+                if grown.any():
+                    mask = grown | _across_lobe(grown, lobe)
             mask = _fill_holes(mask)
         return mask
 

@@ -56,6 +56,18 @@ def _grow(image: np.ndarray, mask: np.ndarray, ground: np.ndarray | None, tolera
     return cv2.resize(grown, (w, h), interpolation=cv2.INTER_NEAREST) > 0
 
 
+def _across_lobe(mask: np.ndarray, lobe: np.ndarray) -> np.ndarray:
+    """The lobe's pixels with road both left and right of them in their row.
+
+    A sun's specular lobe lies on the surface that mirrors it; where the road goes on
+    at both sides of it, the lobe is on the road (its clipped core keeps nothing of the
+    road's colour, and its steep flanks stop the growth).
+    """
+    left = np.logical_or.accumulate(mask, axis=1)
+    right = np.logical_or.accumulate(mask[:, ::-1], axis=1)[:, ::-1]
+    return lobe & left & right
+
+
 def grow_road(
     image: np.ndarray,
     mask: np.ndarray,

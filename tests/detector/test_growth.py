@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
-from simroad.detector.growth import grow_road
+from simroad.detector.growth import _across_lobe, grow_road
 
 
 def _scene() -> np.ndarray:
@@ -34,6 +34,18 @@ def test_grow_road_follows_a_smooth_lobe_and_stops_at_the_road_edge():
     near = np.zeros_like(road)
     near[58:, 78:242] = True  # the half-resolution fill may cross the edge by 2 px
     assert not (grown & ~near).any()
+
+
+def test_the_lobe_joins_the_road_only_where_road_lies_on_both_sides():
+    road = np.zeros((3, 8), bool)
+    lobe = np.zeros((3, 8), bool)
+    road[0, [0, 1, 6, 7]] = True  # row 0: road both sides of the lobe
+    road[1, [0, 1]] = True  # row 1: road on the left only (the lobe at the road's edge)
+    road[2, [6, 7]] = True  # row 2: road on the right only
+    lobe[:, 2:6] = True
+    expected = np.zeros((3, 8), bool)
+    expected[0, 2:6] = True
+    assert np.array_equal(_across_lobe(road, lobe), expected)
 
 
 def test_grow_road_without_seeds_is_empty_and_rejects_bad_input():
