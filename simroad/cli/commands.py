@@ -48,7 +48,9 @@ __all__ = [
 ]
 
 #: ``simroad ablate`` flags that set AblationGrid fields (None: not given).
-ABLATE_GRID_FLAGS = ("scenarios", "noises", "severities", "filters", "detectors", "seeds", "seed_start", "steps")
+ABLATE_GRID_FLAGS = (
+    "scenarios", "noises", "severities", "filters", "detectors", "seeds", "seed_start", "steps", "friction"
+)  # fmt: skip
 #: Keys of ``simroad ablate`` that configure the run, not the grid.
 RUN_KEYS = ("workers", "backend", "ray_address", "out")
 

@@ -190,6 +190,14 @@ def _add_ablate(sub: Any) -> None:
         help="keyword option for one of --detectors (SPEC@KEY=VALUE; KEY=VALUE when one detector besides "
         "paper is given); repeatable",
     )
+    p.add_argument(
+        "--no-friction",
+        dest="friction",
+        action="store_const",
+        const=False,
+        help="every episode without tyre-road friction (highway-env's unlimited dynamics; default: friction from "
+        "the weather), to separate what the weather costs perception from what it costs the dynamics",
+    )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
     p.add_argument("--steps", type=_STEPS, help=f"policy steps per episode (default: {d['steps']})")
