@@ -48,9 +48,7 @@ __all__ = [
 ]
 
 #: ``simroad ablate`` flags that set AblationGrid fields (None: not given).
-ABLATE_GRID_FLAGS = (
-    "scenarios", "noises", "severities", "filters", "detectors", "seeds", "seed_start", "steps", "friction"
-)  # fmt: skip
+ABLATE_GRID_FLAGS = ("scenarios", "noises", "severities", "filters", "detectors", "seeds", "seed_start", "steps")
 #: Keys of ``simroad ablate`` that configure the run, not the grid.
 RUN_KEYS = ("workers", "backend", "ray_address", "out")
 
@@ -141,6 +139,8 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         value = getattr(args, key)
         if value is not None:
             opts[key] = value
+    if args.no_friction:
+        opts["friction"] = False
     if args.detector_option:
         opts["detector_options"] = _detector_option_flags(
             args.detector_option, opts.get("detectors", ("paper",)), dict(opts.get("detector_options", {}))
@@ -300,6 +300,10 @@ def cmd_figure(args: argparse.Namespace) -> int:
         path = camera_figure(args.out, seed=args.seed)
     elif args.what == "places":
         path = places_figure(args.out, seed=args.seed)
+    elif args.what == "friction":
+        from simroad.experiments.friction_figure import friction_figure
+
+        path = friction_figure(args.out)
     else:
         from simroad.noise.gallery import render_gallery
 

@@ -192,11 +192,9 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument(
         "--no-friction",
-        dest="friction",
-        action="store_const",
-        const=False,
+        action="store_true",
         help="every episode without tyre-road friction (highway-env's unlimited dynamics; default: friction from "
-        "the weather), to separate what the weather costs perception from what it costs the dynamics",
+        "the weather; friction = false in --config), to separate what the weather costs perception from what it costs the dynamics",
     )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
@@ -382,7 +380,7 @@ def _add_pictures(sub: Any) -> None:
         help="draw a documentation figure",
         description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery) or 'places' (the same places clean and in low sun).",
     )
-    p.add_argument("what", choices=("camera", "weather", "places"), help="which figure")
+    p.add_argument("what", choices=("camera", "weather", "places", "friction"), help="which figure")
     p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
     seed = default_of(camera_figure, "seed")
     p.add_argument(
