@@ -15,12 +15,12 @@ import math
 
 import numpy as np
 
-from simroad._validation import check_finite_number, check_in_range
+from simroad._validation import check_finite_number
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_estimate import LaneEstimator, PathEstimate, _check_camera_and_config
-from simroad.envs.friction import MU_RANGE, G
+from simroad.envs.friction import G, check_mu
 
 __all__ = ["ACCEL_RANGE_M_S2", "ControllerConfig", "MaskLaneKeeper", "PathEstimate"]
 
@@ -75,7 +75,7 @@ class MaskLaneKeeper:
         ndarray of float32, shape (2,)
         """
         check_finite_number("speed_m_s", speed_m_s)
-        grip = math.inf if mu is None else self.config.grip_use * check_in_range("mu", mu, *MU_RANGE) * G
+        grip = math.inf if mu is None else self.config.grip_use * check_mu("mu", mu) * G
         est = self.estimator.read_path(mask)
         self.last = est
         self.estimator.remember(est)
