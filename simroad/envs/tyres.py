@@ -11,9 +11,10 @@ they deliver (understeer), and braking by what they deliver (a longer stop). Bra
 brings the car to a halt, never into reverse.
 
 IDM traffic (:class:`~highway_env.vehicle.behavior.IDMVehicle`) also plans with its
-grip: it uses at most :attr:`GripIDMVehicle.GRIP_USE` of ``μ·g`` for its comfortable
+grip: it uses at most :attr:`GripIDMVehicle.BRAKE_USE` of ``μ·g`` for its comfortable
 braking and acceleration (so it keeps longer gaps on a slippery road) and holds its
-target speed below what the curves ahead allow at that lateral acceleration.
+target speed below what the curves ahead allow at :attr:`GripIDMVehicle.CORNER_USE`
+of ``μ·g``, braking for them in time.
 """
 
 from __future__ import annotations
@@ -91,8 +92,12 @@ class GripIDMVehicle(GripVehicle, IDMVehicle):
     """highway-env's ``IDMVehicle`` with the friction circle, braking and cornering
     within its grip (see the module docstring)."""
 
-    #: Fraction of ``μ·g`` IDM traffic plans with (braking, acceleration, cornering).
-    GRIP_USE = 0.5
+    #: Fraction of ``μ·g`` IDM traffic brakes and accelerates with at most (its
+    #: comfortable 5 and 3 m/s^2 are kept on a dry road: 0.65·0.8·g = 5.1).
+    BRAKE_USE = 0.65
+    #: Fraction of ``μ·g`` IDM traffic takes curves with (0.6 already slides at the
+    #: entry of an arc after a straight, where highway-env's steering overshoots).
+    CORNER_USE = 0.5
     lanes_ahead: LanesAhead | None = None
 
     def act(self, action: Any = None) -> None:
@@ -101,13 +106,13 @@ class GripIDMVehicle(GripVehicle, IDMVehicle):
             super().act(action)
             return
         mu = self.mu if math.isfinite(self.mu) else grip.mu_at(*map(float, self.position))
-        usable = self.GRIP_USE * mu * G
+        brake, corner = self.BRAKE_USE * mu * G, self.CORNER_USE * mu * G
         # IDM's comfortable deceleration b and acceleration a, per car (its desired gap grows as sqrt(a·b) falls)
-        setattr(self, "COMFORT_ACC_MIN", -min(-_IDM_ACC_MIN, usable))  # noqa: B010
-        setattr(self, "COMFORT_ACC_MAX", min(_IDM_ACC_MAX, usable))  # noqa: B010
+        setattr(self, "COMFORT_ACC_MIN", -min(-_IDM_ACC_MIN, brake))  # noqa: B010
+        setattr(self, "COMFORT_ACC_MAX", min(_IDM_ACC_MAX, brake))  # noqa: B010
         target = float(getattr(self, "target_speed"))  # noqa: B009
         if self.lanes_ahead is not None:
-            limit = self.lanes_ahead.curve_speed_m_s(self, usable, usable)
+            limit = self.lanes_ahead.curve_speed_m_s(self, corner, corner)  # and brakes for it gently
             self.target_speed = min(target, limit)
         try:
             super().act(action)

@@ -103,7 +103,7 @@ def test_idm_traffic_brakes_within_its_grip():
         road.step(DT)
         decel.append((before - idm.speed) / DT)
     assert max(decel) <= 0.1 * G + 1e-9
-    assert idm.COMFORT_ACC_MIN == pytest.approx(-0.5 * 0.1 * G)  # plans with half its grip
+    assert idm.COMFORT_ACC_MIN == pytest.approx(-GripIDMVehicle.BRAKE_USE * 0.1 * G)  # plans with part of its grip
     assert not idm.crashed and idm.speed < 0.5
 
 
