@@ -139,6 +139,8 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         value = getattr(args, key)
         if value is not None:
             opts[key] = value
+    if args.no_friction:
+        opts["friction"] = False
     if args.detector_option:
         opts["detector_options"] = _detector_option_flags(
             args.detector_option, opts.get("detectors", ("paper",)), dict(opts.get("detector_options", {}))
@@ -298,6 +300,10 @@ def cmd_figure(args: argparse.Namespace) -> int:
         path = camera_figure(args.out, seed=args.seed)
     elif args.what == "places":
         path = places_figure(args.out, seed=args.seed)
+    elif args.what == "friction":
+        from simroad.experiments.friction_figure import friction_figure
+
+        path = friction_figure(args.out)
     else:
         from simroad.noise.gallery import render_gallery
 

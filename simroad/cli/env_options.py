@@ -1,6 +1,6 @@
 """The environment options every ``simroad`` subcommand that renders frames shares.
 
-Weather, scenario, camera, scenery and sensor flags, with their defaults read from
+Weather, scenario, camera, scenery, sensor and friction flags, with their defaults read from
 the library (:class:`RoadCamConfig`, :class:`CameraConfig`, :class:`EpisodeSpec`), and
 :func:`env_options` turning the parsed flags back into RoadCam keywords.
 """
@@ -13,9 +13,11 @@ import inspect
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from simroad._validation import SimroadError
 from simroad.camera.geometry import CameraConfig
 from simroad.cli import types as T
 from simroad.envs.config import RoadCamConfig
+from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.noise import NOISE_NAMES
 
@@ -93,10 +95,42 @@ def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) ->
         action="store_true",
         help="a perfect pinhole camera: no sensor (exposure, noise, response curve, vignetting, motion blur)",
     )
+    _add_friction_options(g)
+
+
+def _mu(text: str) -> float:
+    try:
+        value = float(text.strip())
+    except ValueError:
+        raise SimroadError(f"mu: expected a number in (0, 1.5], got {text!r}.") from None
+    return check_mu("mu", value)
+
+
+def _add_friction_options(g: argparse._ArgumentGroup) -> None:
+    """``--no-friction``, ``--road-surface``, ``--mu`` (checked again by :class:`RoadCamConfig`)."""
+    g.add_argument(
+        "--no-friction",
+        action="store_true",
+        help="no tyre-road friction limit: highway-env's unlimited dynamics, drivers unaware of grip",
+    )
+    surface = default_of(RoadCamConfig, "road_surface")
+    g.add_argument(
+        "--road-surface",
+        type=T.choice(ROAD_SURFACES),
+        default=surface,
+        help=f"{names(ROAD_SURFACES)}: friction from the weather (auto) or one surface everywhere (default: {surface})",
+    )
+    bad = [("wrong type", "abc"), ("zero", "0"), ("above the range", "2"), ("not finite", "nan")]
+    g.add_argument(
+        "--mu",
+        type=T.checked(_mu, "mu", bad=bad),
+        default=None,
+        help="a fixed tyre-road friction coefficient in (0, 1.5] everywhere (default: from --road-surface)",
+    )
 
 
 def env_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The RoadCam keywords of the camera, scenery and sensor flags (``--width`` ...)."""
+    """The RoadCam keywords of the camera, scenery, sensor and friction flags (``--width`` ...)."""
     return {
         "width": args.width,
         "height": args.height,
@@ -104,4 +138,7 @@ def env_options(args: argparse.Namespace) -> dict[str, Any]:
         "pitch_deg": args.pitch,
         "scenery": args.scenery,
         "camera_effects": not args.no_camera_effects,
+        "friction": not args.no_friction,
+        "road_surface": args.road_surface,
+        "mu": args.mu,
     }

@@ -190,6 +190,12 @@ def _add_ablate(sub: Any) -> None:
         help="keyword option for one of --detectors (SPEC@KEY=VALUE; KEY=VALUE when one detector besides "
         "paper is given); repeatable",
     )
+    p.add_argument(
+        "--no-friction",
+        action="store_true",
+        help="every episode without tyre-road friction (highway-env's unlimited dynamics; default: friction from "
+        "the weather; friction = false in --config), to separate what the weather costs perception from what it costs the dynamics",
+    )
     p.add_argument("--seeds", type=_COUNT, help=f"number of seeds (default: {d['seeds']})")
     p.add_argument("--seed-start", dest="seed_start", type=T.seed(), help=f"first seed (default: {d['seed_start']})")
     p.add_argument("--steps", type=_STEPS, help=f"policy steps per episode (default: {d['steps']})")
@@ -374,7 +380,7 @@ def _add_pictures(sub: Any) -> None:
         help="draw a documentation figure",
         description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery) or 'places' (the same places clean and in low sun).",
     )
-    p.add_argument("what", choices=("camera", "weather", "places"), help="which figure")
+    p.add_argument("what", choices=("camera", "weather", "places", "friction"), help="which figure")
     p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
     seed = default_of(camera_figure, "seed")
     p.add_argument(

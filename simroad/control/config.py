@@ -93,6 +93,11 @@ class ControllerConfig:
         ego-lane centre at its lane offset and at that offset plus each step; the
         proposal nearest the previous path is taken, and centre points farther than
         ``path_jump_max_m`` from it are always dropped (a junction's mouth).
+    grip_use : float, in (0, 1]
+        Fraction of the tyres' grip ``μ·g`` the driver plans with when it knows μ
+        (``info["mu"]``): its braking and acceleration, and the lateral acceleration
+        of the curves it sees ahead, ``v <= sqrt(grip_use·μ·g / κ)``. 0.6 keeps the
+        dry road's 4.7 m/s^2 above the default braking (``max_decel_m_s2``).
     """
 
     lane_width_m: float = 3.5
@@ -125,6 +130,7 @@ class ControllerConfig:
     outlier_mad_factor: float = 3.0
     fit_rounds: int = 3
     edge_steps_m: tuple[float, ...] = ()
+    grip_use: float = 0.6
 
     def __post_init__(self) -> None:
         ranges: dict[str, tuple[float, float, str, bool]] = {
@@ -154,6 +160,7 @@ class ControllerConfig:
             "line_min_span_m": (0.0, 100.0, "m", True),
             "outlier_min_m": (0.0, 10.0, "m", True),
             "outlier_mad_factor": (0.0, 100.0, "", False),
+            "grip_use": (0.0, 1.0, "", False),
         }
         for name, (low, high, unit, low_inclusive) in ranges.items():
             check_in_range(name, getattr(self, name), low, high, unit=unit, low_inclusive=low_inclusive)

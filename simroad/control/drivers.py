@@ -96,7 +96,7 @@ class MaskDriver:
         else:
             mask = check_mask(self.detector.predict(obs), obs.shape[:2], self.detector)
         self.last_mask = mask
-        return self.controller.act(mask, float(info["speed_m_s"]))
+        return self.controller.act(mask, float(info["speed_m_s"]), mu=info.get("mu"))
 
 
 class CallableDriver:

@@ -3,6 +3,10 @@
 :class:`~simroad.control.lane_estimate.LaneEstimator` reads the ego-lane path and the
 free road ahead off the mask; :class:`MaskLaneKeeper` steers onto that path with pure
 pursuit and holds a target speed, lowered for short free road and for tight curves.
+Given the tyre–road friction ``mu`` (the environment's ``info["mu"]``), it also
+plans within its grip: it brakes and accelerates at most ``grip_use·μ·g`` and holds
+the speed at which every curve it sees ahead takes at most that lateral
+acceleration, ``v <= sqrt(grip_use·μ·g / κ)``.
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ from simroad.camera.geometry import PinholeCamera
 from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_estimate import LaneEstimator, PathEstimate, _check_camera_and_config
+from simroad.envs.friction import G, check_mu
 
 __all__ = ["ACCEL_RANGE_M_S2", "ControllerConfig", "MaskLaneKeeper", "PathEstimate"]
 
@@ -52,7 +57,7 @@ class MaskLaneKeeper:
         (see :meth:`LaneEstimator.read_path`)."""
         return self.estimator.read_path(mask)
 
-    def act(self, mask: np.ndarray, speed_m_s: float) -> np.ndarray:
+    def act(self, mask: np.ndarray, speed_m_s: float, *, mu: float | None = None) -> np.ndarray:
         """Return ``[steering, acceleration]`` actions in [-1, 1] for highway-env.
 
         Parameters
@@ -61,12 +66,16 @@ class MaskLaneKeeper:
             Road mask of the camera frame.
         speed_m_s : float
             The ego's speed in m/s.
+        mu : float, optional
+            Tyre–road friction coefficient under the car (``info["mu"]``); None
+            plans without a grip limit.
 
         Returns
         -------
         ndarray of float32, shape (2,)
         """
         check_finite_number("speed_m_s", speed_m_s)
+        grip = math.inf if mu is None else self.config.grip_use * check_mu("mu", mu) * G
         est = self.estimator.read_path(mask)
         self.last = est
         self.estimator.remember(est)
@@ -79,13 +88,24 @@ class MaskLaneKeeper:
         # gravity midway, sideslip beta) only the rear axle moves along the heading.
         delta = pure_pursuit_steering((-c.wheelbase_m / 2.0, 0.0, 0.0), target, c.wheelbase_m)
         steer = float(np.clip(delta / STEERING_RANGE_RAD, -1.0, 1.0))
-        safe = math.sqrt(2.0 * c.max_decel_m_s2 * max(0.0, est.free_road_m - c.stop_margin_m))
+        decel = min(c.max_decel_m_s2, grip)
+        safe = math.sqrt(2.0 * decel * max(0.0, est.free_road_m - c.stop_margin_m))
         # Curvature of the arc pure pursuit will drive (bounded by geometry, unlike the
         # second derivative of a fitted polynomial).
         rear = np.array([-c.wheelbase_m / 2.0, 0.0])
         d = target - rear
         kappa = abs(2.0 * d[1]) / float(d @ d)
         curve = math.sqrt(c.max_lateral_accel_m_s2 / kappa) if kappa > _STRAIGHT_CURVATURE_1_M else math.inf
-        v_des = min(c.target_speed_m_s, safe, curve)
-        accel = np.clip(c.speed_gain_1_s * (v_des - speed_m_s), -c.max_decel_m_s2, c.max_accel_m_s2)
+        v_des = min(c.target_speed_m_s, safe, curve, _grip_speed(est, rear, grip))
+        accel = np.clip(c.speed_gain_1_s * (v_des - speed_m_s), -decel, min(c.max_accel_m_s2, grip))
         return np.array([steer, float(accel) / ACCEL_RANGE_M_S2], dtype=np.float32)
+
+
+def _grip_speed(est: PathEstimate, rear: np.ndarray, lateral_m_s2: float) -> float:
+    """Highest speed at which every arc from the rear axle to a measured point of the
+    path ahead takes at most ``lateral_m_s2`` (m/s; inf on a straight or without grip limit)."""
+    if not math.isfinite(lateral_m_s2) or not len(est.x_m):
+        return math.inf
+    d = np.stack([est.x_m - rear[0], np.polyval(est.coeffs, est.x_m) - rear[1]], axis=1)
+    kappa = float(np.max(np.abs(2.0 * d[:, 1]) / np.einsum("ij,ij->i", d, d)))
+    return math.sqrt(lateral_m_s2 / kappa) if kappa > _STRAIGHT_CURVATURE_1_M else math.inf

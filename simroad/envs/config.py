@@ -12,6 +12,7 @@ from simroad._validation import SimroadError, check_bool, check_choice, check_in
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.sensor import SensorParams
+from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
 from simroad.noise import MODELS, parse_noise
 
@@ -63,6 +64,18 @@ class RoadCamConfig:
         Density scale of the world's scenery (trees, poles, signs, buildings, walls,
         guard rails, overpasses; :mod:`simroad.camera.scenery`) in [0, 5]: 0 is a
         bare world, 1 the scenario's profile, higher values denser.
+    friction : bool
+        Tyre–road friction limits the ego's and the traffic's dynamics (the friction
+        circle, :mod:`simroad.envs.friction`); False is highway-env's unlimited
+        kinematics (and ``info["mu"]`` is None), to separate what the weather costs
+        the dynamics from what it costs perception.
+    road_surface : str
+        ``"auto"``: μ from the weather (dry, wet by water film, slush, settled snow);
+        or one surface everywhere: ``dry``, ``wet``, ``slush``, ``snow``, ``ice``
+        (:data:`simroad.envs.friction.SURFACES`).
+    mu : float, optional
+        A fixed friction coefficient in (0, 1.5] everywhere (with
+        ``road_surface="auto"`` only). Both are refused with ``friction=False``.
     """
 
     scenario: str = "racetrack"
@@ -77,6 +90,9 @@ class RoadCamConfig:
     max_offroad_m: float = 3.0
     camera_effects: bool | SensorParams = True
     scenery: float = 1.0
+    friction: bool = True
+    road_surface: str = "auto"
+    mu: float | None = None
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -97,6 +113,7 @@ class RoadCamConfig:
         check_bool("longitudinal", self.longitudinal)
         check_bool("traffic", self.traffic)
         _check_noise_params(self.noise_params, self.noise)
+        _check_friction(self.friction, self.road_surface, self.mu)
         if not isinstance(self.camera_effects, SensorParams):
             check_bool("camera_effects", self.camera_effects)
             object.__setattr__(self, "camera_effects", bool(self.camera_effects))
@@ -129,6 +146,25 @@ class RoadCamConfig:
                 raise SimroadError("camera: pass either camera=CameraConfig(...) or camera keywords, not both.")
             own_kw["camera"] = CameraConfig(**cam_kw)
         return cls(**own_kw)
+
+
+def _check_friction(friction: Any, road_surface: Any, mu: Any) -> None:
+    """Refuse a non-bool ``friction``, an unknown ``road_surface`` and an invalid or
+    conflicting ``mu``, each by name."""
+    check_bool("friction", friction)
+    check_choice("road_surface", road_surface, ROAD_SURFACES)
+    if not friction and (road_surface != "auto" or mu is not None):
+        name = "mu" if mu is not None else "road_surface"
+        raise SimroadError(
+            f"{name}: set to {mu if mu is not None else road_surface!r} with friction=False, where it has no effect; "
+            "drop it or turn friction on."
+        )
+    if mu is not None:
+        check_mu("mu", mu)
+        if road_surface != "auto":
+            raise SimroadError(
+                f"mu: a fixed mu={mu!r} and road_surface={road_surface!r} both set the friction; give one of them."
+            )
 
 
 def _check_noise_params(params: Any, noise: str) -> None:

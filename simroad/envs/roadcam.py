@@ -16,7 +16,9 @@ from simroad.camera.palette import draw_palette
 from simroad.camera.scenery import Scenery
 from simroad.camera.vehicles import draw_paint, paint_rgb
 from simroad.envs.config import RoadCamConfig
+from simroad.envs.friction import RoadGrip, road_grip
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
+from simroad.envs.tyres import attach_grip
 from simroad.noise import NoiseContext, Weather, make_weather
 
 __all__ = ["RoadCamEnv"]
@@ -66,7 +68,14 @@ class RoadCamEnv(gym.Env):
     ``noise_masks`` (dict noise -> bool HxW), ``pose`` (float64 [x, y, heading]),
     ``speed_m_s``, ``lateral_offset_m`` (to the centre of the closest lane, + is
     right), ``heading_error_rad``, ``lane_width_m``, ``on_road``, ``crashed``,
-    ``time_s``, ``rewards``.
+    ``time_s``, ``rewards``; ``mu`` (the tyre–road friction coefficient under the
+    ego, None with ``friction=False``) and ``sliding`` (the tyres slid during the
+    step: the car turned or braked less than it asked).
+
+    ## Friction
+    With ``friction=True`` (default) every moving car obeys the friction circle
+    ``|a| <= μ·g``, μ from the weather (:mod:`simroad.envs.friction`; dry asphalt
+    0.8 rarely binds at the scenarios' speeds); ``env.grip`` gives μ anywhere.
 
     ## Arguments
     ``gymnasium.make("simroad/RoadCam-v0", scenario="winding", width=640,
@@ -114,6 +123,8 @@ class RoadCamEnv(gym.Env):
         self.renderer: CameraRenderer | None = None
         self.weather: Weather | None = None
         self.sensor: Sensor | None = None
+        self.grip: RoadGrip | None = None
+        self._slides = 0
         self._vehicle_rgb: dict[int, tuple[tuple[int, int, int], tuple[float, float, float]]] = {}
         self._colour_rng: np.random.Generator | None = None
         self._prev_heading = 0.0
@@ -176,6 +187,11 @@ class RoadCamEnv(gym.Env):
                 self.config.noise, severity=self.config.severity, params=self.config.noise_params
             )
             self.weather.reset(weather_rng, world=self.world)
+        self.grip = None
+        if self.config.friction:  # deterministic: draws nothing
+            self.grip = road_grip(self.weather, road_surface=self.config.road_surface, mu=self.config.mu)
+            attach_grip(self._hw.road, self.grip)
+        self._slides = 0
         self.sensor = None
         if self.config.sensor_params is not None:
             # The last draw of reset, made only when the sensor is on: with
@@ -272,6 +288,14 @@ class RoadCamEnv(gym.Env):
         off = min(max(0.0, l.distance(v.position) - l.width_at(0.0) / 2) for l in self._hw.road.network.lanes_list())
         return float(lat), err, width, float(off)
 
+    def _grip_state(self) -> dict[str, Any]:
+        """``mu`` under the ego (None without friction) and ``sliding`` since the last call."""
+        if self.grip is None:
+            return {"mu": None, "sliding": False}
+        slides = int(getattr(self.vehicle, "slides", 0))
+        sliding, self._slides = slides > self._slides, slides
+        return {"mu": float(self.vehicle.mu), "sliding": sliding}
+
     def _route_finished(self) -> bool:
         nodes = getattr(self._hw, "route_nodes", None)
         if not nodes:
@@ -331,6 +355,7 @@ class RoadCamEnv(gym.Env):
             "crashed": crashed,
             "time_s": self._time,
             "rewards": rewards,
+            **self._grip_state(),
         }
         self._obs, self._info = rgb, info
         return rgb, info

@@ -73,6 +73,7 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
             scenario=spec.scenario, noise=spec.noise, severity=spec.severity if spec.noise != "clear" else 0.0,
             filters=format_filters(spec.filters), driver=spec.driver, seed=spec.seed, steps=0,
             detector="", detector_version="", detector_spec=spec.detector if spec.driver == "detector" else "",
+            friction=spec.env_options.get("friction", True),
         )  # fmt: skip
         record["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}"
     return record

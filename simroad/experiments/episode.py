@@ -26,6 +26,13 @@ fnr_image, fpr_image      pooled over every pixel of every frame (sky and all ab
 iou, f1                   pooled intersection-over-union and F1 of the road class
 collided ... driving_score  safety metrics, see :mod:`simroad.metrics.safety`
 min_ttc_s                 ``null`` when no vehicle ahead was ever closing in
+min_stopping_margin_m     gap to the vehicle ahead minus the stopping distance at
+                          the braking the tyres allow (``null`` when no vehicle
+                          was ever ahead; see :mod:`simroad.metrics.safety`)
+slide_steps               policy steps in which the ego's tyres slid
+mean_speed_m_s            distance over time driven, m/s
+friction                  whether tyre–road friction limited the dynamics
+                          (RoadCam's ``friction`` option)
 detect_ms_median          median milliseconds of one driver call per step
                           (perception and control: the detector's mask
                           prediction plus the lane keeper, or a custom driver)
@@ -75,7 +82,8 @@ RECORD_KEYS = (
     "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "fnr_image", "fpr_image", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
-    "route_completion", "min_ttc_s", "driving_score",
+    "route_completion", "min_ttc_s", "min_stopping_margin_m", "slide_steps", "mean_speed_m_s", "friction",
+    "driving_score",
     "detect_ms_median", "step_ms_median", "wall_s",
 )  # fmt: skip
 
@@ -236,8 +244,10 @@ def run_episode(
     }
     record.update(_mask_record(masks, whole))
     record.update(safety.result())
-    if not math.isfinite(record["min_ttc_s"]):
-        record["min_ttc_s"] = None
+    for key in ("min_ttc_s", "min_stopping_margin_m"):
+        if not math.isfinite(record[key]):
+            record[key] = None
+    record["friction"] = env.config.friction
     record["detect_ms_median"] = float(np.median(detect_ms)) if detect_ms else 0.0
     record["step_ms_median"] = float(np.median(step_ms)) if step_ms else 0.0
     record["wall_s"] = time.perf_counter() - t_start

@@ -79,6 +79,8 @@ class AblationGrid:
     ``detectors`` are detector specs (``paper``, a registered name, ``module:attr``,
     ``path/to/file.py:attr``; :mod:`simroad.detector.registry`), each built with its
     ``detector_options[spec]`` (keyword options) and the filter set in front.
+    ``friction=False`` runs every episode without tyre–road friction (RoadCam's
+    ``friction`` option), to separate perception losses from dynamics losses.
     """
 
     scenarios: tuple[str, ...] = ("racetrack", "winding")
@@ -92,6 +94,7 @@ class AblationGrid:
     oracle: bool = True
     detectors: tuple[str, ...] = ("paper",)
     detector_options: dict = field(default_factory=dict)
+    friction: bool = True
 
     def __post_init__(self) -> None:
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
@@ -120,6 +123,7 @@ class AblationGrid:
         check_int_in_range("steps", self.steps, 1, 1_000_000)
         check_bool("traffic", self.traffic)
         check_bool("oracle", self.oracle)
+        check_bool("friction", self.friction)
 
     def specs(self) -> list[EpisodeSpec]:
         """Every episode of the grid, in a fixed order."""
@@ -136,6 +140,7 @@ class AblationGrid:
                             seed=seed,
                             steps=self.steps,
                             traffic=self.traffic,
+                            env_options={} if self.friction else {"friction": False},
                         )
                         if self.oracle:
                             out.append(base(driver="oracle"))

@@ -63,6 +63,8 @@ METRICS = {
     "offroad_fraction": "offroad_fraction",
     "collision_rate": "collided",
     "lateral_rmse_m": "lateral_rmse_m",
+    "mean_speed_m_s": "mean_speed_m_s",
+    "slide_steps": "slide_steps",
     "driving_score": "driving_score",
 }
 #: The derived column: per-episode whole-image FPR minus ground FPR.
@@ -133,6 +135,8 @@ _MD_COLUMNS = {
     "offroad_fraction": ("off-road %", 100, 2),
     "collision_rate": ("collision %", 100, 1),
     "lateral_rmse_m": ("lat. RMSE m", 1, 3),
+    "mean_speed_m_s": ("speed m/s", 1, 2),
+    "slide_steps": ("slide steps", 1, 1),
     "driving_score": ("driving score", 1, 3),
 }
 

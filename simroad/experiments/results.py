@@ -46,6 +46,8 @@ ROW_TYPES: dict[str, str] = {
     "severity": "severity",
     "collided": "flag",
     "min_ttc_s": "number|null",
+    "min_stopping_margin_m": "number|null",
+    "friction": "flag",
     "error": "text|null",
 }
 _OPTIONAL = ("error",)

@@ -23,6 +23,17 @@ time-to-collision
     For the vehicle ahead in the ego's lane (highway-env's ``neighbour_vehicles``),
     gap / closing speed when closing; ``min_ttc_s`` is the minimum over the
     episode (inf if never closing). Oncoming traffic in its own lane does not count.
+stopping margin
+    For the same vehicle ahead, gap minus the ego's stopping distance
+    ``v²/(2·a)``, with ``a = min(5 m/s², μ·g)``: the braking of highway-env's
+    action range, limited by the tyre–road friction ``info["mu"]`` (the action
+    range alone when the environment runs without friction).
+    ``min_stopping_margin_m`` is the minimum over the episode (inf if no vehicle
+    was ever ahead); negative means the ego could not have stopped short of where
+    the car ahead was.
+sliding, speed
+    ``slide_steps`` counts steps in which the tyres slid (``info["sliding"]``);
+    ``mean_speed_m_s`` is the odometer over the time driven.
 driving score
     In the spirit of the CARLA leaderboard: ``route_completion x product of
     penalties``, with one factor per infraction: vehicle collision 0.60, off-road
@@ -35,14 +46,18 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from highway_env.envs.common.action import ContinuousAction
 
 from simroad._validation import SimroadError, check_in_range
 from simroad.camera.lanes import lane_signed_distance, supports_vectorised
+from simroad.envs.friction import G
 
 __all__ = ["PENALTIES", "SafetyScore", "footprint_corners"]
 
 #: Multiplicative penalty per infraction in the driving score.
 PENALTIES = {"collision": 0.60, "offroad": 0.65, "lane_departure": 0.95}
+#: Hardest braking highway-env's continuous action asks for, m/s^2.
+BRAKE_M_S2 = -float(ContinuousAction.ACCELERATION_RANGE[0])
 
 
 def footprint_corners(vehicle) -> np.ndarray:
@@ -94,6 +109,8 @@ class SafetyScore:
     distance_m: float = 0.0
     progress_m: float = 0.0
     min_ttc_s: float = math.inf
+    min_stopping_margin_m: float = math.inf
+    slide_steps: int = 0
     _lat: list[float] = field(default_factory=list)
     _head: list[float] = field(default_factory=list)
     _was_off: bool = False
@@ -128,7 +145,15 @@ class SafetyScore:
         step = float(vehicle.speed) * self.dt
         self.distance_m += step
         self.progress_m += step * math.cos(herr)
-        self.min_ttc_s = min(self.min_ttc_s, _min_ttc(road, vehicle))
+        self.slide_steps += int(bool(info.get("sliding", False)))
+        front = _front(road, vehicle)
+        if front is not None:
+            gap, closing = front
+            self.min_ttc_s = min(self.min_ttc_s, gap / closing if closing > 1e-6 else math.inf)
+            mu = info.get("mu")
+            brake = BRAKE_M_S2 if mu is None else min(BRAKE_M_S2, float(mu) * G)
+            margin = gap - max(0.0, float(vehicle.speed)) ** 2 / (2.0 * brake)
+            self.min_stopping_margin_m = min(self.min_stopping_margin_m, margin)
 
     def result(self) -> dict[str, float | int | bool]:
         """The metrics as a flat dict (keys of the episode record)."""
@@ -150,18 +175,20 @@ class SafetyScore:
             "distance_m": self.distance_m,
             "route_completion": completion,
             "min_ttc_s": self.min_ttc_s,
+            "min_stopping_margin_m": self.min_stopping_margin_m,
+            "slide_steps": self.slide_steps,
+            "mean_speed_m_s": self.distance_m / (self.steps * self.dt) if self.steps else 0.0,
             "driving_score": score,
         }
 
 
-def _min_ttc(road, ego) -> float:
-    """Time to collision with the vehicle ahead in the ego's lane (highway-env's
-    ``road.neighbour_vehicles``, which also searches the connected next lane)."""
+def _front(road, ego) -> tuple[float, float] | None:
+    """(gap in m, closing speed in m/s) to the vehicle ahead in the ego's lane
+    (highway-env's ``road.neighbour_vehicles``, which also searches the connected
+    next lane), or None when there is none."""
     front, _ = road.neighbour_vehicles(ego, ego.lane_index)
     if front is None:
-        return math.inf
+        return None
     gap = float(np.linalg.norm(np.asarray(front.position) - np.asarray(ego.position))) - (ego.LENGTH + front.LENGTH) / 2
     closing = float(ego.speed) - float(front.speed) * math.cos(float(front.heading) - float(ego.heading))
-    if closing <= 1e-6:
-        return math.inf
-    return max(gap, 0.0) / closing
+    return max(gap, 0.0), closing

@@ -233,6 +233,18 @@ class SnowModel(pt.ParticleModel):
         super()._on_reset()
         self._lattice: np.ndarray | None = None
 
+    def cover_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Settled-snow fraction at world points (m), float32 in [0, 1]: the same
+        patches :meth:`material` paints (0 everywhere when ``settle`` is 0). Where
+        the cover lies (beside the road, or on it too) is ``settle_on_road``'s call."""
+        x, y = np.broadcast_arrays(np.asarray(x, dtype=np.float32), np.asarray(y, dtype=np.float32))
+        if self.params.settle == 0.0:
+            return np.zeros(x.shape, dtype=np.float32)
+        if self._lattice is None:
+            self._lattice = noise_lattice(self._seed)
+        flat = snow_cover(x.reshape(1, -1), y.reshape(1, -1), self.params.settle, self._lattice)  # OpenCV maps are 2-D
+        return flat.reshape(x.shape)
+
     def material(self, state: FrameState) -> None:
         p = self.params
         if p.settle == 0.0 or state.material is None:

@@ -44,6 +44,7 @@ PINNED = {
     "outlier_mad_factor": 3.0,
     "fit_rounds": 3,
     "edge_steps_m": (),
+    "grip_use": 0.6,
 }
 
 

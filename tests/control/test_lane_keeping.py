@@ -12,7 +12,7 @@ from simroad import SimroadError
 from simroad.control import autopilot_action
 from simroad.control.drivers import make_driver
 from simroad.control.lane_estimate import _occlusion_free, _pick_run
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper
+from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _grip_speed
 from simroad.envs import RoadCamEnv, get_scenario
 
 
@@ -153,3 +153,34 @@ def test_bad_inputs():
         make_driver("oracle", RoadCamEnv(scenario="racetrack"))
     with pytest.raises(SimroadError, match="lane_width_m"):
         ControllerConfig(lane_width_m=-1)
+
+
+def test_controller_plans_within_its_grip():
+    # On a road that ends 15 m ahead it brakes as hard as it dares: 4 m/s^2 on a dry
+    # road (its own limit, below 0.6 * 0.8 g = 4.7), 0.6 * 0.1 g = 0.59 m/s^2 on ice.
+    env = RoadCamEnv(scenario="highway", longitudinal=True, traffic=False)
+    env.reset(seed=0)
+    full = np.zeros((180, 320), bool)
+    full[env.camera.ground_valid] = True
+    short = full & (env.camera.depth < 15.0)
+    cfg = ControllerConfig(lane_width_m=4.0, target_speed_m_s=25.0)
+    for mu, decel in ((None, 4.0), (0.8, 4.0), (0.1, 0.6 * 0.1 * 9.81)):
+        ctl = MaskLaneKeeper(env.camera, cfg)
+        assert ctl.act(short, 25.0, mu=mu)[1] * 5.0 == pytest.approx(-decel, rel=1e-5)
+    with pytest.raises(SimroadError, match="mu"):
+        MaskLaneKeeper(env.camera, cfg).act(full, 25.0, mu=0.0)
+
+
+def test_controller_slows_for_the_curve_it_sees_on_a_slippery_road():
+    env = RoadCamEnv(scenario="racetrack", longitudinal=True, traffic=False)
+    _, info = env.reset(seed=0)
+    for _ in range(8):  # into the first bend
+        _, _, _, _, info = env.step([autopilot_action(env.highway_env.road, env.vehicle), 0.0])
+    ctl = MaskLaneKeeper(env.camera, ControllerConfig.for_scenario(get_scenario("racetrack")))
+    est = ctl.read_path(info["road_mask"])
+    rear = np.array([-ctl.config.wheelbase_m / 2.0, 0.0])
+    dry, ice = (_grip_speed(est, rear, 0.6 * mu * 9.81) for mu in (0.8, 0.1))
+    assert dry == pytest.approx(math.sqrt(8.0) * ice)  # v = sqrt(a / kappa)
+    assert ice < 6.0 < dry < 15.0  # the bend's radius: 15-20 m
+    assert _grip_speed(est, rear, math.inf) == math.inf  # no grip limit without mu
+    assert ctl.act(info["road_mask"], 7.0, mu=0.1)[1] < 0.0 < ctl.act(info["road_mask"], 3.0, mu=0.1)[1]

@@ -1,0 +1,54 @@
+"""Closed loop with tyre–road friction (issue 17): the oracle slows down for the grip
+it has and stays on winding roads in rain and snow; a car that does not, slides off."""
+
+from __future__ import annotations
+
+import pytest
+
+from simroad.control import autopilot_action
+from simroad.envs import RoadCamEnv
+from simroad.experiments.episode import EpisodeSpec, run_episode
+from simroad.metrics.safety import SafetyScore
+
+#: A small bare camera: the oracle reads the ground-truth mask, and the weather only
+#: has to set the friction.
+SMALL = {"width": 160, "height": 90, "scenery": 0.0, "camera_effects": False}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("noise", ["rain", "snow"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_oracle_slows_down_and_stays_on_winding_roads(noise, seed):
+    spec = dict(scenario="winding", noise=noise, severity=0.8, driver="oracle", seed=seed, steps=250)
+    rec = run_episode(EpisodeSpec(**spec, env_options=SMALL))
+    assert rec["friction"] is True
+    assert rec["offroad_steps"] == 0 and not rec["collided"]
+    assert rec["slide_steps"] == 0
+    free = run_episode(EpisodeSpec(**spec, env_options={**SMALL, "friction": False}))
+    assert free["friction"] is False and free["slide_steps"] == 0
+    assert rec["mean_speed_m_s"] < free["mean_speed_m_s"]  # it slows down: weather costs time
+
+
+def _fixed_speed_run(friction: bool, steps: int = 150) -> dict:
+    """The ground-truth autopilot steering at the scenario's fixed 15 m/s (no speed
+    control) on a winding road whose surface is packed snow (mu 0.25): its curves of
+    45-60 m hold at most sqrt(0.25 g R) = 10.5-12.1 m/s."""
+    options = {"friction": friction, "road_surface": "snow"} if friction else {"friction": False}
+    env = RoadCamEnv(scenario="winding", traffic=False, **SMALL, **options)
+    env.reset(seed=0)
+    score = SafetyScore(dt=env.dt, route_length_m=1e9)
+    for _ in range(steps):
+        _, _, terminated, truncated, info = env.step([autopilot_action(env.highway_env.road, env.vehicle)])
+        score.update(env.highway_env.road, env.vehicle, info)
+        if terminated or truncated:
+            break
+    env.close()
+    return score.result()
+
+
+@pytest.mark.slow
+def test_a_fixed_speed_beyond_the_grip_slides_off():
+    sliding = _fixed_speed_run(friction=True)
+    assert sliding["slide_steps"] > 0 and sliding["offroad_steps"] > 0
+    gripping = _fixed_speed_run(friction=False)
+    assert gripping["slide_steps"] == 0 and gripping["offroad_steps"] == 0
