@@ -6,6 +6,11 @@ work on three contiguous float32 *planes* in [0, 1] -- one (H, W) array per chan
 because OpenCV's box filters and NumPy's element-wise arithmetic are several times
 faster on planes than on interleaved (H, W, 3) pixels (and ``cv2.split`` of a float
 image costs more than a whole box filter).
+
+A filter's core (``_*_planes``) returns either three new planes or, when it leaves the
+image as it is, the very list of planes it was given (no copy; never a mix of the two):
+the pipeline then skips the copy and the clip, and the public functions and
+:meth:`~simroad.filters.FilterStep.run` hand their callers new arrays either way.
 """
 
 from __future__ import annotations

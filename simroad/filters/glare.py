@@ -168,7 +168,7 @@ def _glare_planes(
     wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
     found = _lobe([camera_to_linear(p, shoulder) for p in small], fine, wide_small, min_lift)
     if found is None:
-        return [p.copy() for p in planes], np.zeros((h, w), bool)  # no sun's lobe: identity
+        return planes, np.zeros((h, w), bool)  # no sun's lobe: identity (the planes themselves)
     amount, t = found
     amount = cv2.resize(amount, (w, h - r0), interpolation=cv2.INTER_LINEAR)
     mask = np.zeros((h, w), bool)

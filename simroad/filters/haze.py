@@ -96,11 +96,11 @@ def _haze_planes(
     planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows)."""
-    out = [p.copy() for p in planes]
     mask = np.zeros(planes[0].shape, bool)
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
-        return out, mask
+        return planes, mask  # no veil: the planes themselves
+    out = [p.copy() for p in planes]
     t, airlight = found
     # t never grows upwards (the floor is made non-decreasing upwards), so the veiled
     # rows are the top ``n`` rows of the frame.

@@ -164,7 +164,7 @@ def _relight_planes(
 ) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`relight_shadows` on float32 planes; (new planes, relit mask)."""
     h, w = planes[0].shape
-    unchanged = ([p.copy() for p in planes], np.zeros((h, w), bool))
+    unchanged = (planes, np.zeros((h, w), bool))  # no shadow to relight: the planes themselves
     table = _linear_table(shoulder)
     top = min(h - 2, int(h * (1.0 - rows)))
     hs, ws = (h - top) // 2, w // 2
