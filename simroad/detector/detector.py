@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 from sklearn.base import BaseEstimator
+from sklearn.exceptions import NotFittedError
 from sklearn.svm import SVC
 from sklearn.utils.validation import check_is_fitted
 
@@ -42,7 +43,7 @@ from simroad.detector.pixels import (
     MIN_IMAGE_SIZE,
     check_training_set,
     filtered_rgb_masks,
-    filtered_uint8_planes_masks,
+    filtered_table_planes_masks,
     sample_pixels,
 )
 from simroad.detector.svm import KernelExpansion
@@ -240,7 +241,8 @@ class RoadDetector(BaseEstimator):
         ndarray, bool, (H, W)
             True on road.
         """
-        check_is_fitted(self, "lut_", msg=_NOT_FITTED)
+        if not hasattr(self, "lut_"):  # check_is_fitted's test, without its per-call tag machinery
+            raise NotFittedError(_NOT_FITTED % {"name": type(self).__name__})
         image = check_image("image", image, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
@@ -248,7 +250,7 @@ class RoadDetector(BaseEstimator):
             rgb, acted = filtered_rgb_masks(image, filters, variant)
             mask = self._decide_rgb(rgb).reshape(image.shape[:2])
         else:
-            planes, acted = filtered_uint8_planes_masks(image, filters, variant)
+            planes, acted = filtered_table_planes_masks(image, filters, variant)
             mask = self.lut_.lookup(planes)
         if check_bool("morphology", self.morphology):
             ground = getattr(self, "ground_", None)

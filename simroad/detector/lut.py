@@ -28,6 +28,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
+from simroad.detector._lookup_kernel import lookup_planes
+
 __all__ = ["ColourTable", "cell_centres", "lut_index"]
 
 _CHUNK = 1 << 16
@@ -142,18 +144,15 @@ class ColourTable:
         return cls(bits, coarse, cells, fine)
 
     def lookup(self, planes: list[np.ndarray]) -> np.ndarray:
-        """Classify pixels given as three uint8 (H, W) planes R, G, B; (H, W) bool."""
-        shift = 8 - self.bits
-        low = np.uint8((1 << shift) - 1)
-        r, g, b = planes
-        # Index within the cell, ((r % s) * s + (g % s)) * s + (b % s), s = 2**shift.
-        sub = (r & low).astype(np.int32)
-        sub <<= shift
-        sub |= g & low
-        sub <<= shift
-        sub |= b & low
-        sub += np.take(self._offset, lut_index(planes, self.bits))
-        return np.take(self._flat, sub)
+        """Classify pixels given as three (H, W) planes R, G, B; (H, W) bool.
+
+        The planes are uint8 (strided views such as ``image[..., c]`` too), or float32
+        in [0, 1], which are rounded to 8-bit levels first exactly as
+        :func:`simroad.filters._common.planes_to_uint8` rounds them (the filtered
+        planes of the detector go to the table without an 8-bit copy). One compiled
+        pass (:mod:`simroad.detector._lookup_kernel`).
+        """
+        return lookup_planes(planes, self._offset, self._flat, self.bits)
 
     def lookup_image(self, image: np.ndarray) -> np.ndarray:
         """Classify a uint8 RGB image (H, W, 3); (H, W) bool."""

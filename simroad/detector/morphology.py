@@ -36,13 +36,14 @@ def _ego_component(mask: np.ndarray) -> np.ndarray:
 
 
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
-    # Background components (4-connected) that do not touch the border are holes.
-    n, labels = cv2.connectedComponents((~mask).view(np.uint8), connectivity=4)
-    outside = np.zeros(n, dtype=bool)
-    for edge in (labels[0], labels[-1], labels[:, 0], labels[:, -1]):
-        outside[edge] = True
-    outside[0] = False  # label 0 is the mask itself
-    return ~outside[labels]
+    # Background components (4-connected) that do not touch the border are holes. Framed
+    # by a one-pixel ring of background, every component that touches the border joins
+    # the ring: one 4-connected flood fill from a corner finds them all.
+    h, w = mask.shape
+    background = np.ones((h + 2, w + 2), np.uint8)
+    np.logical_not(mask, out=background[1:-1, 1:-1].view(bool))
+    cv2.floodFill(background, None, (0, 0), 2, flags=4)
+    return background[1:-1, 1:-1] != 2
 
 
 def keep_ego_component(mask: np.ndarray) -> np.ndarray:
@@ -69,9 +70,9 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
 
     Eq. 31 grows ``X_k = (X_{k-1} (+) B) n A^c`` from a seed until it stops changing;
     the holes are the background pixels that such growth from the image border never
-    reaches. We label the 4-connected background components with
-    ``cv2.connectedComponents`` and fill those that do not touch the border, which
-    gives the same set in one pass.
+    reaches. We frame the background with a one-pixel ring and flood fill it
+    (4-connected, ``cv2.floodFill``) from a corner: what the fill does not reach is the
+    mask and its holes, the same set in one pass.
 
     Parameters
     ----------

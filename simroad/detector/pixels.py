@@ -8,7 +8,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_mask
 from simroad.filters._common import planes_to_uint8, to_planes
-from simroad.filters.pipeline import filter_planes_masks
+from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
 
 __all__ = [
     "IMAGE_DTYPES",
@@ -16,6 +16,7 @@ __all__ = [
     "check_training_set",
     "filtered_rgb",
     "filtered_rgb_masks",
+    "filtered_table_planes_masks",
     "filtered_uint8_planes",
     "filtered_uint8_planes_masks",
     "sample_pixels",
@@ -122,4 +123,20 @@ def filtered_uint8_planes_masks(
         return planes_to_uint8(planes), masks
     if image.dtype != np.uint8:
         return planes_to_uint8([np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)]), {}
+    return [image[..., c] for c in range(3)], {}
+
+
+def filtered_table_planes_masks(
+    image: np.ndarray, filters: tuple[str, ...], variant: str = "improved"
+) -> tuple[list[np.ndarray], dict[str, np.ndarray]]:
+    """The filtered image as the lookup table reads it, and each filter's mask.
+
+    Like :func:`filtered_uint8_planes_masks`, without the 8-bit copy: the filtered
+    float32 planes (the table rounds them to 8-bit levels as :func:`planes_to_uint8`
+    does), or the uint8 image's own planes when no filter runs.
+    """
+    if filters:
+        return _filter_planes_masks(to_planes(image), filters, variant)
+    if image.dtype != np.uint8:
+        return [np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)], {}
     return [image[..., c] for c in range(3)], {}

@@ -6,6 +6,11 @@ work on three contiguous float32 *planes* in [0, 1] -- one (H, W) array per chan
 because OpenCV's box filters and NumPy's element-wise arithmetic are several times
 faster on planes than on interleaved (H, W, 3) pixels (and ``cv2.split`` of a float
 image costs more than a whole box filter).
+
+A filter's core (``_*_planes``) returns either three new planes or, when it leaves the
+image as it is, the very list of planes it was given (no copy; never a mix of the two):
+the pipeline then skips the copy and the clip, and the public functions and
+:meth:`~simroad.filters.FilterStep.run` hand their callers new arrays either way.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_int_in_range
+from simroad.filters._kernels import response_forward, response_inverse
 from simroad.noise.radiometry import GAMMA
 
 __all__ = [
@@ -143,13 +149,24 @@ def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
 
 
 def camera_to_linear(p: np.ndarray, shoulder: float) -> np.ndarray:
-    """Display value in [0, 1] -> the camera's linear signal: encoding undone, shoulder undone (float32)."""
+    """Display value in [0, 1] -> the camera's linear signal: encoding undone, shoulder undone (float32).
+
+    ``z = p ** GAMMA`` (``cv2.pow``), then ``z / ((1 + k) - k z)`` in float32 (compiled, in place).
+    """
     z = cv2.pow(np.ascontiguousarray(p, dtype=np.float32), GAMMA)
-    return (z / (np.float32(1.0 + shoulder) - np.float32(shoulder) * z)).astype(np.float32)
+    response_inverse(z, np.float32(1.0 + shoulder), np.float32(shoulder))
+    return z
 
 
-def linear_to_camera(y: np.ndarray, shoulder: float) -> np.ndarray:
-    """Inverse of :func:`camera_to_linear`: the response's shoulder, then the encoding (float32, ``y`` clipped to [0, 1])."""
-    y = np.clip(y, 0.0, 1.0).astype(np.float32)
-    z = np.float32(1.0 + shoulder) * y / (np.float32(1.0) + np.float32(shoulder) * y)
-    return cv2.pow(z, 1.0 / GAMMA).astype(np.float32)
+def linear_to_camera(y: np.ndarray, shoulder: float, *, gain: np.float32 | None = None) -> np.ndarray:
+    """Inverse of :func:`camera_to_linear`: the response's shoulder, then the encoding (float32, ``y`` clipped to [0, 1]).
+
+    ``c = clip(y, 0, 1)``, ``z = (1 + k) c / (1 + k c)`` in float32, then ``z ** (1 / GAMMA)``
+    (``cv2.pow``). With ``gain`` (float32) it is ``linear_to_camera(y * gain)`` in one pass.
+    """
+    if y.dtype != np.float32:  # rounded to float32 after the clip, as always
+        y = np.clip(y, 0.0, 1.0).astype(np.float32)
+    z = np.empty(y.shape, np.float32)
+    response_forward(np.ascontiguousarray(y), np.float32(1.0 if gain is None else gain), np.float32(1.0 + shoulder),
+                     np.float32(shoulder), z)  # fmt: skip
+    return cv2.pow(z, 1.0 / GAMMA)

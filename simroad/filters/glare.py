@@ -15,6 +15,8 @@ have metered it without the lobe.
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
@@ -29,6 +31,17 @@ from simroad.filters._common import (
     from_planes,
     linear_to_camera,
     to_planes,
+)
+from simroad.filters._kernels import (
+    LEVELS,
+    clipped_top,
+    fill_rows,
+    level_rows,
+    masked_medians,
+    median,
+    percentile_below,
+    row_runs,
+    table_rows,
 )
 
 __all__ = ["remove_glare"]
@@ -67,7 +80,7 @@ def _fit_tint(lift_rgb: np.ndarray) -> np.ndarray:
 def _find_lobe(least: np.ndarray, warm: np.ndarray, level: float, min_lift: float) -> int | None:
     """Column of a sun's glare lobe (in the reduced image), or None when the frame has none."""
     floor = max(level, 1e-3)
-    if float(np.percentile(least, 99)) < min_lift * floor or float(np.percentile(warm, 99)) < _MIN_WARM * floor:
+    if percentile_below(least, 99, min_lift * floor) or percentile_below(warm, 99, _MIN_WARM * floor):
         return None
     w = least.shape[1]
     half, off = max(1, round(3 * w / 80)), max(2, round(5 * w / 80))
@@ -80,10 +93,18 @@ def _find_lobe(least: np.ndarray, warm: np.ndarray, level: float, min_lift: floa
     band = least[:, max(0, c - half) : c + half + 1].max(axis=1)
     if float((lit & (band >= 0.8 * row_max)).mean()) < _MIN_ROWS:
         return None
-    padded = np.pad(least[lit], ((0, 0), (off, off)))
-    left, right = padded[:, c], padded[:, c + 2 * off]
+    rows = least[lit]  # the lift off and off columns either side of the peak, 0 beyond the frame
+    left = rows[:, c - off] if c >= off else np.zeros(len(rows), rows.dtype)
+    right = rows[:, c + off] if c + off < w else np.zeros(len(rows), rows.dtype)
     sym = np.minimum(left, right) / np.maximum(np.maximum(left, right), 1e-9)
-    return c if float(np.median(sym)) >= _MIN_SYMMETRY else None
+    return c if float(median(sym)) >= _MIN_SYMMETRY else None
+
+
+def _medians(planes: Planes, mask: np.ndarray) -> np.ndarray:
+    """``[float(np.median(x[mask])) for x in planes]`` as a float64 array (compiled when ``mask`` is not empty)."""
+    if mask.any():
+        return masked_medians(np.stack(planes), mask).astype(np.float64)
+    return np.array([float(np.median(x[mask])) for x in planes])
 
 
 def _lobe(lin: Planes, fine: int, wide: int, min_lift: float) -> tuple[np.ndarray, np.ndarray] | None:
@@ -102,12 +123,12 @@ def _lobe(lin: Planes, fine: int, wide: int, min_lift: float) -> tuple[np.ndarra
     floors = [cv2.morphologyEx(o, cv2.MORPH_OPEN, k_wide) for o in opened]
     lifts = [o - f for o, f in zip(opened, floors)]
     least = cv2.min(cv2.min(lifts[0], lifts[1]), lifts[2])
-    level = float(np.median(cv2.min(cv2.min(floors[0], floors[1]), floors[2])))
+    level = float(median(cv2.min(cv2.min(floors[0], floors[1]), floors[2])))
     if _find_lobe(least, np.maximum(lifts[0] - lifts[2], 0.0), level, min_lift) is None:
         return None
     top = float(least.max())
     flank = (least >= _FLANK[0] * top) & (least <= _FLANK[1] * top)  # below a clipped core, above the floor's grain
-    t = _fit_tint(np.array([float(np.median(x[flank])) for x in lifts]))
+    t = _fit_tint(_medians(lifts, flank))
     amount = cv2.min(cv2.min(lifts[0] / t[0], lifts[1] / t[1]), lifts[2] / t[2])
     return cv2.GaussianBlur(amount, (0, 0), 1.0), t
 
@@ -122,30 +143,59 @@ def _clipped(planes: Planes, lobe: np.ndarray) -> np.ndarray:
     """
     if not lobe.any():
         return lobe
-    hi = cv2.max(cv2.max(planes[0], planes[1]), planes[2])
-    top = lobe & (hi >= float(hi[lobe].max()) - _CLIP_DEPTH)
-    grey = (hi - cv2.min(cv2.min(planes[0], planes[1]), planes[2])) <= _CLIP_SPREAD
-    return top if 2 * int((top & grey).sum()) >= int(top.sum()) else np.zeros_like(lobe)
+    top = np.empty_like(lobe)
+    grey = clipped_top(planes[0], planes[1], planes[2], lobe, _CLIP_DEPTH, np.float32(_CLIP_SPREAD), top)
+    return top if 2 * grey >= int(top.sum()) else np.zeros_like(lobe)
 
 
-def _fill_rows(lin: Planes, holes: np.ndarray) -> None:
-    """Replace ``holes`` in each plane, row by row, by the straight line between their nearest neighbours (in place)."""
-    if not holes.any():
-        return
-    rows, cols = crop_box(holes, 1)
-    sub = holes[rows, cols]
-    w = sub.shape[1]
-    col = np.arange(w)
-    left = np.maximum.accumulate(np.where(sub, -1, col), axis=1)
-    right = np.minimum.accumulate(np.where(sub, w, col)[:, ::-1], axis=1)[:, ::-1]
-    left_ok, right_ok = left >= 0, right < w
-    li = np.where(left_ok, left, np.where(right_ok, right, 0))  # a hole at the border takes its one side
-    ri = np.where(right_ok, right, li)
-    frac = ((col - li) / np.maximum(ri - li, 1)).astype(np.float32)
-    for p in lin:
-        box = p[rows, cols]
-        a, b = np.take_along_axis(box, li, axis=1), np.take_along_axis(box, ri, axis=1)
-        np.copyto(box, a + (b - a) * frac, where=sub)
+def _fill_rows(lin: np.ndarray, holes: np.ndarray) -> None:
+    """Replace ``holes`` in each of the (3, H, W) planes, row by row, by the straight line between
+    their nearest neighbours (in place; compiled, :func:`~simroad.filters._kernels.fill_rows`)."""
+    if holes.any():
+        rows, cols = crop_box(holes, 1)
+        fill_rows(lin[:, rows, cols], holes[rows, cols])
+
+
+def _reexpose(
+    lin: np.ndarray, gain: np.float32, codes: np.ndarray, rows: np.ndarray, r0: int, shoulder: float
+) -> Planes:
+    """``linear_to_camera(x * gain)`` of each linear plane ``x`` of the (3, H, W) ``lin``.
+
+    The rows above ``r0`` are the frame's own linear values (the lobe is below): in a
+    row of 8-bit levels (``rows``, the levels in ``codes``) each output is one of 256 per
+    channel, computed once and looked up.
+    """
+    out = []
+    table = linear_to_camera(_linear_levels(shoulder), shoulder, gain=gain).reshape(-1)
+    for x, code, ok in zip(lin, codes, rows):
+        o = np.empty_like(x)
+        o[r0:] = linear_to_camera(x[r0:], shoulder, gain=gain)
+        table_rows(code[:r0], ok[:r0], table, o[:r0])
+        for a, b in row_runs(ok[:r0]):
+            o[a:b] = linear_to_camera(x[a:b], shoulder, gain=gain)
+        out.append(o)
+    return out
+
+
+@functools.lru_cache(maxsize=8)
+def _linear_levels(shoulder: float) -> np.ndarray:
+    """The camera's linear signal of the 256 float32 8-bit levels (read-only)."""
+    out = camera_to_linear(LEVELS, shoulder).reshape(-1)
+    out.setflags(write=False)
+    return out
+
+
+def _to_linear(planes: Planes, shoulder: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`camera_to_linear` of each plane as a (3, H, W) array, with the 8-bit levels (uint8)
+    and, per plane and row, whether the row was all levels (bool (3, H)): such a row's values
+    are read from a table."""
+    h, w = planes[0].shape
+    lin, codes, rows = np.empty((3, h, w), np.float32), np.empty((3, h, w), np.uint8), np.empty((3, h), bool)
+    for p, x, code, ok in zip(planes, lin, codes, rows):
+        level_rows(p, _linear_levels(shoulder), x, code, ok)
+        for a, b in row_runs(ok):
+            x[a:b] = camera_to_linear(p[a:b], shoulder)
+    return lin, codes, rows
 
 
 def _glare_planes(
@@ -168,25 +218,25 @@ def _glare_planes(
     wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
     found = _lobe([camera_to_linear(p, shoulder) for p in small], fine, wide_small, min_lift)
     if found is None:
-        return [p.copy() for p in planes], np.zeros((h, w), bool)  # no sun's lobe: identity
+        return planes, np.zeros((h, w), bool)  # no sun's lobe: identity (the planes themselves)
     amount, t = found
     amount = cv2.resize(amount, (w, h - r0), interpolation=cv2.INTER_LINEAR)
     mask = np.zeros((h, w), bool)
     lobe = amount > min_excess
     clipped = _clipped([p[r0:] for p in planes], lobe)
     mask[r0:] = lobe | clipped
-    lin = [camera_to_linear(p, shoulder) for p in planes]
+    lin, codes, rows = _to_linear(planes, shoulder)
     m0 = min(int(metering_top * h), h - 1)
     before = sum(float(x[m0:].mean()) for x in lin)
     for c in range(3):
         sub = lin[c][r0:]
         sub -= amount * t[c]
         np.maximum(sub, 0.0, out=sub)
-    _fill_rows([x[r0:] for x in lin], clipped)  # the clipped core kept nothing of the road: take its sides
+    _fill_rows(lin[:, r0:], clipped)  # the clipped core kept nothing of the road: take its sides
     after = sum(float(x[m0:].mean()) for x in lin)
     # The camera metered the lobe: without it, it would have exposed by before/after more.
     gain = np.float32(min(before / max(after, 1e-6), _MAX_GAIN))
-    return [linear_to_camera(x * gain, shoulder) for x in lin], mask
+    return _reexpose(lin, gain, codes, rows, r0, shoulder), mask
 
 
 def remove_glare(

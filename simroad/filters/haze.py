@@ -46,17 +46,77 @@ validation frames, worlds 200-203: FNR 4.7 -> 6.0 %). At 0.045 clean frames keep
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
 from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
+from simroad.filters._kernels import (
+    LEVELS,
+    MONOTONE_FROM,
+    MONOTONE_POWERS,
+    apply_row_tables,
+    area4_floor,
+    level_codes,
+    median,
+)
 
 __all__ = ["remove_haze"]
 
 _SCALE = 4  # statistics at a quarter of the width
 #: Saturation ``1 - min/mean`` of the airlight (linear) above which the sky is blue: clear air.
 _MAX_SKY_SATURATION = 0.15
+
+
+def _row_floor(planes: Planes, sw: int, kth: int, gamma: float) -> np.ndarray:
+    """Each row's ``kth`` smallest linear value of the darkest channel at width ``sw``, (h,) float32.
+
+    The planes reduced (area), raised to ``gamma``, their darkest channel and each row's
+    order statistic -- computed, where that is the same bit for bit (an integer
+    reduction, ``cv2.pow`` monotone: :mod:`simroad.filters._kernels`), as the power of
+    each row's order statistic in one compiled pass: ``h`` powers instead of three planes.
+    """
+    h, w = planes[0].shape
+    floor = np.empty(h, np.float32)
+    if (
+        w == 4 * sw
+        and gamma in MONOTONE_POWERS
+        and not area4_floor(planes[0], planes[1], planes[2], kth, floor, MONOTONE_FROM)
+    ):
+        return cv2.pow(floor, gamma).reshape(-1)
+    lin = [cv2.pow(cv2.resize(p, (sw, h), interpolation=cv2.INTER_AREA), gamma) for p in planes]
+    return np.partition(cv2.min(cv2.min(lin[0], lin[1]), lin[2]), kth, axis=1)[:, kth]
+
+
+@functools.lru_cache(maxsize=8)
+def _level_powers(gamma: float) -> np.ndarray:
+    """``cv2.pow`` of the 256 float32 8-bit levels (read-only)."""
+    out = cv2.pow(LEVELS, gamma).reshape(-1)
+    out.setflags(write=False)
+    return out
+
+
+def _dehaze_rows(p: np.ndarray, out: np.ndarray, n: int, gain: np.ndarray, lift: np.ndarray, gamma: float) -> None:
+    """Rows ``[:n]`` of ``out``: ``clip(p**gamma gain + lift, 0, 1)**(1 / gamma)``, one gain and lift per row (n, 1).
+
+    On a plane of 8-bit levels (the detector's frames) each row takes at most 256
+    values: they are computed once per row (``cv2.pow`` depends on the value alone)
+    and looked up. Any other plane is computed as written.
+    """
+    codes = np.empty((n, p.shape[1]), np.uint8)
+    if level_codes(p[:n], codes):
+        tables = _level_powers(gamma).reshape(1, -1) * gain
+        tables += lift
+        np.clip(tables, 0.0, 1.0, out=tables)
+        apply_row_tables(codes, cv2.pow(tables, 1.0 / gamma), out[:n])
+        return
+    lin = cv2.pow(p[:n], gamma)
+    lin *= gain
+    lin += lift
+    np.clip(lin, 0.0, 1.0, out=lin)
+    cv2.pow(lin, 1.0 / gamma, dst=out[:n])
 
 
 def _transmission(
@@ -73,15 +133,13 @@ def _transmission(
     sh, sw = h, max(1, w // scale)  # every row kept: t changes fast near the horizon
     top = max(1, h // 8)  # the sky at the top of the frame is the airlight
     sky = [cv2.pow(cv2.resize(p[:top], (sw, top), interpolation=cv2.INTER_AREA), gamma) for p in planes]
-    airlight = np.array([float(np.median(x)) for x in sky], np.float32)
+    airlight = np.array([float(median(x)) for x in sky], np.float32)
     a_min = float(airlight.min())
     if 1.0 - a_min / max(float(airlight.mean()), 1e-6) > max_sky_saturation:
         return None  # a blue sky: clear air, no veil worth removing (and the far rows' rise is the roadside)
-    lin = [cv2.pow(cv2.resize(p, (sw, sh), interpolation=cv2.INTER_AREA), gamma) for p in planes]
-    darkest = cv2.min(cv2.min(lin[0], lin[1]), lin[2])
     kth = min(sw - 1, int(round(percentile / 100.0 * (sw - 1))))
-    floor = np.partition(darkest, kth, axis=1)[:, kth]  # the row's percentile (nearest rank)
-    j0 = float(np.median(floor[sh - max(1, sh // 8) :]))
+    floor = _row_floor(planes, sw, kth, gamma)  # sh = h
+    j0 = float(median(floor[sh - max(1, sh // 8) :]))
     if a_min - j0 < 1e-3:  # no contrast between the near ground and the airlight
         return None
     floor = np.maximum.accumulate(floor[::-1])[::-1]  # non-decreasing upwards
@@ -96,11 +154,10 @@ def _haze_planes(
     planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows)."""
-    out = [p.copy() for p in planes]
     mask = np.zeros(planes[0].shape, bool)
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
-        return out, mask
+        return planes, mask  # no veil: the planes themselves
     t, airlight = found
     # t never grows upwards (the floor is made non-decreasing upwards), so the veiled
     # rows are the top ``n`` rows of the frame.
@@ -108,12 +165,10 @@ def _haze_planes(
     mask[:n] = True
     gain = 1.0 / t[:n, None]
     lift = 1.0 - gain  # J = I / t - A (1 - t) / t = I gain + A lift
+    out = [np.empty_like(p) for p in planes]
     for o, p, a in zip(out, planes, airlight):
-        lin = cv2.pow(p[:n], float(gamma))
-        lin *= gain
-        lin += a * lift
-        np.clip(lin, 0.0, 1.0, out=lin)
-        cv2.pow(lin, 1.0 / float(gamma), dst=o[:n])
+        o[n:] = p[n:]
+        _dehaze_rows(p, o, n, gain, a * lift, float(gamma))
     return out, mask
 
 

@@ -208,7 +208,7 @@ def _highlights_planes(
     dark = _dark_channel(planes, patch)
     mask = dark > otsu_threshold(dark)
     if not mask.any():
-        return [p.copy() for p in planes], mask
+        return planes, mask  # no highlight: the planes themselves
     rs, cs = crop_box(mask, radius * (2 * iterations + 1))
     crop = [np.ascontiguousarray(p[rs, cs]) for p in planes]
     lam = _max_diffuse_chromaticity(crop, radius, eps, iterations, subsample)

@@ -97,7 +97,7 @@ def _colour_cast_planes(
     every filter core); (new planes, mask of changed pixels)."""
     gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:
-        return [p.copy() for p in planes], np.zeros(planes[0].shape, bool)
+        return planes, np.zeros(planes[0].shape, bool)  # inside the box: the planes themselves
     out = []
     for p, g in zip(planes, gains):
         lin = cv2.pow(p, gamma)

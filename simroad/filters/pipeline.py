@@ -115,7 +115,8 @@ class FilterStep:
 
     def run(self, planes: Planes) -> tuple[Planes, np.ndarray]:
         """Run the step on three float32 (H, W) planes in [0, 1]: (new planes, bool (H, W) mask)."""
-        return _CORES[self.function](planes, **self.options)
+        out, mask = _CORES[self.function](planes, **self.options)
+        return ([p.copy() for p in planes] if out is planes else out), mask
 
 
 def _step(function: Callable[..., FilterResult], **settings: Any) -> FilterStep:
@@ -238,14 +239,28 @@ def filter_planes_masks(
     planes: Planes, filters: tuple[str, ...], variant: str = "improved"
 ) -> tuple[Planes, dict[str, np.ndarray]]:
     """:func:`filter_planes`, and where each filter acted: ``{name: bool (H, W)}``, its steps' masks united."""
+    out, masks = _filter_planes_masks(planes, filters, variant)
+    return ([p.copy() for p in planes] if out is planes else out), masks
+
+
+def _filter_planes_masks(
+    planes: Planes, filters: tuple[str, ...], variant: str = "improved"
+) -> tuple[Planes, dict[str, np.ndarray]]:
+    """:func:`filter_planes_masks` that may hand back ``planes`` itself when no filter changed them.
+
+    A filter core returns the very list it was given when it leaves the planes as they
+    are (no weather to undo); then nothing is copied, and the filter's clip is skipped
+    (the planes already lie in [0, 1]).
+    """
     out, masks = planes, {}
     for name in filters:
-        acted = np.zeros(planes[0].shape, bool)
+        before, acted = out, None
         for step in FILTER_REGISTRY[name].steps(variant):
-            out, mask = step.run(out)
-            acted |= mask
-        clip_planes(out)
-        masks[name] = acted
+            out, mask = _CORES[step.function](out, **step.options)
+            acted = mask if acted is None else acted | mask
+        if out is not before:
+            clip_planes(out)
+        masks[name] = acted if acted is not None else np.zeros(planes[0].shape, bool)
     return out, masks
 
 
@@ -273,7 +288,7 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, varian
     variant = check_choice("variant", variant, FILTER_VARIANTS)
     if not names:
         return image.copy()
-    return from_planes(filter_planes(to_planes(image), names, variant), image.dtype)
+    return from_planes(_filter_planes_masks(to_planes(image), names, variant)[0], image.dtype)
 
 
 def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:

@@ -51,6 +51,8 @@ median on shadow frames (the rounds of step 3).
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
@@ -64,6 +66,7 @@ from simroad.filters._common import (
     linear_to_camera,
     to_planes,
 )
+from simroad.filters._kernels import edge_pairs, masked_medians, median, median_at_most, quantize_take, sky_ratios
 
 __all__ = ["relight_shadows"]
 
@@ -79,51 +82,65 @@ _FIRST_LIT = 0.8  # first guess of the lit: within this many shadow steps of the
 _BLUER = 0.25  # a shadow edge keeps at least this much more of its blue than of its red (log)
 
 
+@functools.lru_cache(maxsize=8)
 def _linear_table(shoulder: float) -> np.ndarray:
-    """Encoded level (``_LEVELS`` steps of [0, 1]) -> the camera's linear signal."""
-    return camera_to_linear(np.linspace(0.0, 1.0, _LEVELS, dtype=np.float32), shoulder)
+    """Encoded level (``_LEVELS`` steps of [0, 1]) -> the camera's linear signal (read-only)."""
+    table = camera_to_linear(np.linspace(0.0, 1.0, _LEVELS, dtype=np.float32), shoulder)
+    table.setflags(write=False)
+    return table
 
 
 def _linearise(p: np.ndarray, table: np.ndarray) -> np.ndarray:
-    """Float32 plane in [0, 1] -> linear signal by ``table`` (nearest of its levels)."""
-    return table.take(np.clip(np.rint(p * (_LEVELS - 1)), 0, _LEVELS - 1).astype(np.intp))
+    """Float32 plane in [0, 1] -> linear signal by ``table`` (nearest of its levels):
+    ``table[clip(rint(p * (_LEVELS - 1)), 0, _LEVELS - 1)]``, compiled."""
+    out = np.empty(p.shape, np.float32)
+    quantize_take(p, table, out)
+    return out
 
 
-def _sky_blue(planes: Planes, table: np.ndarray, sky_rows: float) -> float:
-    """Median linear ``log B/R`` of the unclipped pixels of the top rows (-inf if none)."""
+def _sky_not_blue(planes: Planes, table: np.ndarray, sky_rows: float, min_sky_blue: float) -> bool:
+    """Whether the median linear ``log B/R`` of the unclipped pixels of the top rows is at
+    most ``min_sky_blue`` (or fewer than 30 pixels are unclipped).
+
+    Unclipped: every channel under ``_SAT``, red above 0.03, blue above ``_DARK``; the
+    pixels are linearised and tested in one compiled pass, and the median is compared
+    with the threshold by counting (:func:`~simroad.filters._kernels.median_at_most`).
+    """
     top = max(1, int(round(sky_rows * planes[0].shape[0])))
-    r, g, b = (_linearise(p[:top], table) for p in planes)
-    ok = (np.maximum(np.maximum(r, g), b) < _SAT) & (r > 0.03) & (b > _DARK)
-    if ok.sum() < 30:
-        return -np.inf
-    return float(np.median(np.log(b[ok] / r[ok])))
+    ratios = np.empty(top * planes[0].shape[1], np.float32)
+    n = sky_ratios(planes[0][:top], planes[1][:top], planes[2][:top], table, np.float32(_SAT), np.float32(0.03),
+                   np.float32(_DARK), ratios)  # fmt: skip
+    return n < 30 or median_at_most(np.log(ratios[:n]), min_sky_blue)
 
 
 def _edge_pairs(logs: np.ndarray, valid: np.ndarray, min_drop: float) -> np.ndarray:
-    """Log differences (dark - lit), (N, 3), of the shadow-like pairs ``_SHIFT`` apart."""
-    out = []
-    for dy, dx in ((0, _SHIFT), (_SHIFT, 0)):
-        h, w = valid.shape
-        a, b = logs[:, : h - dy, : w - dx], logs[:, dy:, dx:]
-        both = valid[: h - dy, : w - dx] & valid[dy:, dx:]
-        for diff in (b - a, a - b):
-            r, g, bl = diff
-            ok = both & (r < -min_drop) & (r < g) & (g < bl) & (bl < 0.0) & (bl - r > _BLUER * -r)
-            out.append(diff[:, ok].T)
-    return np.concatenate(out)
+    """Log differences (dark - lit), (N, 3), of the shadow-like pairs ``_SHIFT`` apart (compiled)."""
+    out = np.empty((4 * valid.size, 3), logs.dtype)
+    n = edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER), out)
+    return out[:n]
 
 
 def _lit_mean(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     """Mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around each pixel: a
-    ``window`` box, a 3x larger one where it holds too few, else the frame's mean."""
-    mean = np.repeat((logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0), lit.shape[0], 1)
-    mean = np.repeat(mean, lit.shape[1], 2)
+    ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
+
+    The weight ``lit`` and the three ``logs * lit`` are box-filtered as one
+    four-channel image (one ``cv2.blur`` per box; channel by channel the same sums).
+    """
+    frame = (logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0)
+    mean = np.empty((3, *lit.shape), frame.dtype)
+    mean[...] = frame
+    stack = np.empty((*lit.shape, 4), np.result_type(logs, lit))
+    stack[..., 0] = lit
+    for c in range(3):
+        np.multiply(logs[c], lit, out=stack[..., c + 1])
     for size in (3 * window, window):  # the smaller box overrides where it holds enough
-        weight = cv2.blur(lit, (size, size))
+        sums = cv2.blur(stack, (size, size))
+        weight = sums[..., 0]
         ok = weight > 0.15
+        floor = np.maximum(weight, 1e-6)
         for c in range(3):
-            local = cv2.blur(logs[c] * lit, (size, size)) / np.maximum(weight, 1e-6)
-            np.copyto(mean[c], local, where=ok)
+            np.copyto(mean[c], sums[..., c + 1] / floor, where=ok)
     return mean
 
 
@@ -150,7 +167,7 @@ def _coverage(
         core = cv2.erode(shadow, core_disc).astype(bool)
         if core.sum() <= 20:
             break
-        new: np.ndarray = np.minimum(np.median(diff[:, core], axis=1), -1e-3)
+        new: np.ndarray = np.minimum(masked_medians(diff, core), -1e-3)
         moved = float(np.abs(new - d).max())
         d = new
         if moved < 0.01:
@@ -164,11 +181,11 @@ def _relight_planes(
 ) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`relight_shadows` on float32 planes; (new planes, relit mask)."""
     h, w = planes[0].shape
-    unchanged = ([p.copy() for p in planes], np.zeros((h, w), bool))
+    unchanged = (planes, np.zeros((h, w), bool))  # no shadow to relight: the planes themselves
     table = _linear_table(shoulder)
     top = min(h - 2, int(h * (1.0 - rows)))
     hs, ws = (h - top) // 2, w // 2
-    if hs < 2 * _SHIFT or ws < 2 * _SHIFT or _sky_blue(planes, table, sky_rows) <= min_sky_blue:
+    if hs < 2 * _SHIFT or ws < 2 * _SHIFT or _sky_not_blue(planes, table, sky_rows, min_sky_blue):
         return unchanged
     lin = [_linearise(p[top : top + 2 * hs], table) for p in planes]
     small = [cv2.resize(p, (ws, hs), interpolation=cv2.INTER_AREA) for p in lin]
@@ -179,7 +196,8 @@ def _relight_planes(
     pairs = _edge_pairs(logs, valid, min_drop)
     if len(pairs) < min_pairs:
         return unchanged
-    d0 = np.median(pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], 75)], axis=0)
+    strong = pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], 75)]
+    d0 = np.array([median(strong[:, c]) for c in range(3)], strong.dtype)  # np.median(strong, axis=0)
     alpha, shadow, d = _coverage(logs, valid, d0, window)
     region = cv2.dilate(shadow, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _GROW + 1, 2 * _GROW + 1)))
     alpha = np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32)

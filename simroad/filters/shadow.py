@@ -166,7 +166,7 @@ def _shadows_planes(
     """Core of :func:`remove_shadows` on float32 planes; returns (new planes, corrected mask)."""
     found = _shadow_regions(planes, min_ndi, min_area, ring, max_darkness)
     if found is None:
-        return [p.copy() for p in planes], np.zeros(planes[0].shape, dtype=bool)
+        return planes, np.zeros(planes[0].shape, dtype=bool)  # no shadow: the planes themselves
     labels, ok, gain, offset = found
     mask = ok[labels]
     sel = np.flatnonzero(mask)

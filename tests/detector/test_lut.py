@@ -59,3 +59,35 @@ def test_lut_index_layout():
     idx = lut_index([img[..., c] for c in range(3)], 6)
     assert idx.tolist() == [[0, (1 << 18) - 1, (1 << 12) + (2 << 6) + 3]]
     np.testing.assert_allclose(cell_centres(6)[idx[0, 2]] * 255, [5.5, 9.5, 13.5])
+
+
+def _numpy_lookup(table: ColourTable, planes: list[np.ndarray]) -> np.ndarray:
+    """The table read with whole-frame integer arrays (the lookup before it was compiled)."""
+    shift = 8 - table.bits
+    low = np.uint8((1 << shift) - 1)
+    r, g, b = planes
+    sub = (((r & low).astype(np.int32) << shift | (g & low)) << shift) | (b & low)
+    size = 1 << (3 * shift)
+    offset = table.coarse.astype(np.int32) * size
+    offset[table.refined_cells] = (2 + np.arange(len(table.refined_cells), dtype=np.int32)) * size
+    flat = np.concatenate([np.zeros(size, bool), np.ones(size, bool), table.fine.reshape(-1)])
+    return flat[offset[lut_index(planes, table.bits)] + sub]
+
+
+def test_compiled_lookup_reads_uint8_and_float_planes_like_the_numpy_lookup():
+    from simroad.filters._common import planes_to_uint8
+
+    def decide(rgb):
+        return (rgb.sum(axis=1) < 1.2) & (rgb[:, 1] <= rgb[:, 0] + 0.05)
+
+    table = ColourTable.build(decide, 6)
+    rng = np.random.default_rng(3)
+    image = rng.integers(0, 256, (37, 53, 3)).astype(np.uint8)
+    views = [image[..., c] for c in range(3)]  # strided views, as lookup_image passes them
+    np.testing.assert_array_equal(table.lookup(views), _numpy_lookup(table, views))
+    # float planes, with values on and next to the rounding boundaries and a little outside [0, 1]
+    halves = (rng.integers(0, 255, (3, 37, 53)) + 0.5).astype(np.float32) / np.float32(255)
+    planes = [np.nextafter(h, np.float32(d)) for h, d in zip(halves, (0, 1, 0))]
+    planes[2] = np.where(rng.random((37, 53)) < 0.1, np.float32(-0.01), halves[2]).astype(np.float32)
+    planes[0][0, :5] = [0.0, 1.0, 1.01, -0.0, 0.5]
+    np.testing.assert_array_equal(table.lookup(planes), _numpy_lookup(table, planes_to_uint8(planes)))

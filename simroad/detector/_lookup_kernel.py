@@ -1,0 +1,65 @@
+"""The colour table's per-pixel lookup, compiled: one pass from three planes to the decision.
+
+:meth:`simroad.detector.lut.ColourTable.lookup` in one loop (numba, ``cache=True``; the
+first call of a fresh install compiles for a second and writes the cache next to this
+module) instead of a dozen whole-frame integer arrays. Each pixel reads
+``flat[offset[coarse index] + index within the cell]`` (see :class:`ColourTable`).
+
+The planes are uint8, or float32 in [0, 1]: a float is first rounded to its 8-bit level
+exactly as :func:`simroad.filters._common.planes_to_uint8` does --
+``cv2.convertScaleAbs(max(x, 0), alpha=255)``, i.e. ``min(rint(x * 255), 255)`` in
+float32, round half to even (checked for every float32 in [0, 1]) -- so the filtered
+frame goes to the table without an 8-bit copy.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+__all__ = ["lookup_planes"]
+
+
+@njit(cache=True, nogil=True)
+def _decide(rv: Any, gv: Any, bv: Any, offset: np.ndarray, flat: np.ndarray, bits: int) -> Any:
+    shift = 8 - bits
+    low = (1 << shift) - 1
+    coarse = ((rv >> shift) << (2 * bits)) | ((gv >> shift) << bits) | (bv >> shift)
+    sub = ((((rv & low) << shift) | (gv & low)) << shift) | (bv & low)
+    return flat[offset[coarse] + sub]
+
+
+@njit(cache=True, nogil=True)
+def _level(x: Any) -> Any:
+    """A float32 plane value as its 8-bit level, as ``planes_to_uint8`` rounds it."""
+    return np.int64(min(np.rint(max(x, np.float32(0.0)) * np.float32(255.0)), np.float32(255.0)))
+
+
+@njit(cache=True, nogil=True)
+def _lookup_u8(
+    r: np.ndarray, g: np.ndarray, b: np.ndarray, offset: np.ndarray, flat: np.ndarray, bits: int, out: np.ndarray
+) -> None:
+    h, w = out.shape
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = _decide(np.int64(r[i, j]), np.int64(g[i, j]), np.int64(b[i, j]), offset, flat, bits)
+
+
+@njit(cache=True, nogil=True)
+def _lookup_f32(
+    r: np.ndarray, g: np.ndarray, b: np.ndarray, offset: np.ndarray, flat: np.ndarray, bits: int, out: np.ndarray
+) -> None:
+    h, w = out.shape
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = _decide(_level(r[i, j]), _level(g[i, j]), _level(b[i, j]), offset, flat, bits)
+
+
+def lookup_planes(planes: list[np.ndarray], offset: np.ndarray, flat: np.ndarray, bits: int) -> np.ndarray:
+    """Decisions (H, W) bool of three (H, W) planes, all uint8 or all float32 in [0, 1] (views allowed)."""
+    out = np.empty(planes[0].shape, np.bool_)
+    kernel = _lookup_u8 if planes[0].dtype == np.uint8 else _lookup_f32
+    kernel(planes[0], planes[1], planes[2], offset, flat, int(bits), out)
+    return out
