@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["decode", "radial_blur", "radial_blur_depth"]
+__all__ = ["decode", "radial_blur", "radial_blur_depth", "radial_blur_frame"]
 
 _FM = {"reassoc", "contract", "nsz", "arcp"}
 _MAX_LEVELS = 8
@@ -43,19 +43,33 @@ def decode(frame, table, out):
 
 
 @njit(cache=True, nogil=True, fastmath=_FM, inline="always")
-def _plan_pixel(s, du, dv, max_step):
-    """Doublings ``n`` and the displacement of one tap spacing for expansion ``s`` at
-    offset (``du``, ``dv``) from the focus of expansion."""
-    length = s * math.sqrt(du * du + dv * dv)
+def _blur_length(s, du, dv):
+    """Blur length ``L = s |p - e|`` (pixels) for expansion ``s`` at offset (``du``, ``dv``)
+    from the focus of expansion."""
+    return s * math.sqrt(du * du + dv * dv)
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, inline="always")
+def _plan_steps(s, du, dv, length, max_step):
+    """Doublings ``n`` and the displacement of one tap spacing of a blur of ``length``
+    >= 0.5 pixels (:func:`_blur_length`)."""
     # n = ceil(log2(L / max_step + 1)): the fewest doublings whose 2**n - 1 spacings
-    # of at most max_step cover L; none below half a pixel.
-    if not length >= 0.5:
-        return 0, np.float32(0.0), np.float32(0.0)
+    # of at most max_step cover L.
     n = 1
     while n < _MAX_LEVELS and np.float32((1 << n) - 1) * max_step < length:
         n += 1
     k = s / np.float32((1 << n) - 1)
     return n, k * du, k * dv
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, inline="always")
+def _plan_pixel(s, du, dv, max_step):
+    """Doublings ``n`` and the displacement of one tap spacing for expansion ``s`` at
+    offset (``du``, ``dv``) from the focus of expansion; none below half a pixel."""
+    length = _blur_length(s, du, dv)
+    if not length >= 0.5:
+        return 0, np.float32(0.0), np.float32(0.0)
+    return _plan_steps(s, du, dv, length, max_step)
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
@@ -133,13 +147,16 @@ def _plan_depth(depth, face_id, flat_faces, inv_cos, travel, cx, foe_row, max_st
             du = np.float32(x - cx)
             forward = depth[y, x] / inv_cos[x]
             s = travel / max(forward - travel, travel)
-            n, fx, fy = _plan_pixel(s, du, dv, max_step)
-            if n > 0 and flat_faces and _stays_on_face(face_id, fid, x, y, s * du, s * dv):
-                n = 0
-            if n > 0:
-                xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
-                k += 1
-                most = max(most, n)
+            length = _blur_length(s, du, dv)
+            if not length >= 0.5:
+                continue
+            # Most face pixels blur within their face: test that before the doublings.
+            if flat_faces and _stays_on_face(face_id, fid, x, y, s * du, s * dv):
+                continue
+            n, fx, fy = _plan_steps(s, du, dv, length, max_step)
+            xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
+            k += 1
+            most = max(most, n)
         row_ptr[y + 1] = k
     return xs, ns, fxs, fys, row_ptr, most
 
@@ -242,9 +259,9 @@ def _rows_read(plan, h):
 def radial_blur_frame(frame, table, img, depth, face_id, inv_cos, travel, cx, foe_row, max_step):
     """:func:`radial_blur_depth` with flat faces, from the 8-bit ``frame`` (uint8
     (H, W, 3)): only the rows the blur reads are decoded (through ``table``) into
-    ``img``, the rest of ``img`` is left as it was. Returns the planned pixels row by
-    row, ``(xs, row_ptr)``: ``img`` differs from the decoded frame only there (see
-    :func:`simroad.camera._sensor_kernel.expose_frame`)."""
+    ``img``, the rest of ``img`` is left as it was. Returns those rows (bool (H,)):
+    each holds the decoded frame with the blurred pixels over it, every row with a
+    blurred pixel is one of them (see :func:`simroad.camera._sensor_kernel.expose_frame`)."""
     plan = _plan_depth(
         depth,
         face_id,
@@ -261,4 +278,4 @@ def radial_blur_frame(frame, table, img, depth, face_id, inv_cos, travel, cx, fo
         if need[y]:
             decode(frame[y], table, img[y])
     _run_levels(img, plan, foe_row)
-    return plan[0], plan[4]
+    return need

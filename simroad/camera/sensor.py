@@ -275,7 +275,7 @@ def apply_sensor(
     fx, cx, cy = float(camera.K[0, 0]), float(camera.K[0, 2]), float(camera.K[1, 2])
     gain = 2.0**ev
     frame = np.ascontiguousarray(rgb)
-    blurred: tuple[np.ndarray, np.ndarray, np.ndarray] = _NOT_BLURRED
+    blurred: tuple[np.ndarray, np.ndarray] = _NOT_BLURRED
     if params.motion_blur:
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
@@ -292,10 +292,10 @@ def apply_sensor(
                     raise SimroadError(
                         f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
                     )
-                xs, row_ptr = radial_blur_frame(
+                rows = radial_blur_frame(
                     frame, _DECODE_LUT, lin, d, np.ascontiguousarray(ids), inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
                 )
-                blurred = (lin, xs, row_ptr)
+                blurred = (lin, rows)
     full = float(2**params.adc_bits - 1)
     wb = _NEUTRAL if white_balance is None else np.asarray(white_balance, np.float32).reshape(3)
     exponent = params.vignetting_exponent if params.vignetting else None
@@ -349,9 +349,8 @@ _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).r
 
 
 _NEUTRAL = np.ones(3, np.float32)
-_NO_PLAN = np.zeros(1, np.int64)
-#: No motion blur: ``expose_frame``'s ``blurred`` patches nothing.
-_NOT_BLURRED = (np.zeros((1, 1, 3), np.float32), np.zeros(1, np.int32), _NO_PLAN)
+#: No motion blur: ``expose_frame``'s ``blurred`` replaces no row.
+_NOT_BLURRED = (np.zeros((1, 1, 3), np.float32), np.zeros(1, np.bool_))
 
 
 class Sensor:
