@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["decode", "radial_blur", "radial_blur_depth", "radial_blur_frame"]
+__all__ = ["decode", "decode_rounded", "radial_blur", "radial_blur_depth", "radial_blur_frame"]
 
 _FM = {"reassoc", "contract", "nsz", "arcp"}
 _MAX_LEVELS = 8
@@ -40,6 +40,27 @@ def decode(frame, table, out):
     src, dst = frame.reshape(-1), out.reshape(-1)
     for i in range(src.size):
         dst[i] = table[src[i]]
+
+
+@njit(cache=True, nogil=True)
+def _round_u16(src, dst):
+    for i in range(src.size):
+        dst[i] = np.uint16(min(max(np.rint(src[i]), np.float32(0.0)), np.float32(65535.0)))
+
+
+@njit(cache=True, nogil=True)
+def decode_rounded(values, table, out):
+    """``out = table[v]`` for ``v`` each of the float32 ``values`` rounded to the nearest
+    integer (ties to even) and saturated to 0..65535, as OpenCV converts a float to 16
+    bits (``saturate_cast<ushort>``); C-contiguous arrays of one shape."""
+    src, dst = values.reshape(-1), out.reshape(-1)
+    step = 4096
+    chunk = np.empty(step, np.uint16)
+    for start in range(0, src.size, step):
+        end = min(start + step, src.size)
+        part = chunk[: end - start]
+        _round_u16(src[start:end], part)  # vectorised, apart from the table's gather
+        decode(part, table, dst[start:end])
 
 
 @njit(cache=True, nogil=True, fastmath=_FM, inline="always")

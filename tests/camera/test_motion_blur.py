@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import cv2
 import numpy as np
 import pytest
 from highway_env.road.lane import LineType, StraightLane
@@ -13,8 +14,8 @@ from highway_env.road.road import RoadNetwork
 
 from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, SensorParams, WorldRaster
-from simroad.camera._blur_kernel import radial_blur, radial_blur_depth
-from simroad.camera._ground_blur import RowBlur, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
+from simroad.camera._blur_kernel import decode, radial_blur, radial_blur_depth
+from simroad.camera._ground_blur import RowBlur, _tables, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
 from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale
 from simroad.noise.radiometry import srgb_to_linear
 
@@ -102,6 +103,29 @@ def test_texture_blur_averages_linear_light():
     lin = srgb_to_linear(np.ascontiguousarray(out[:, :, :3]))[4, :, 0]
     assert lin[2] == pytest.approx(0.25, abs=0.01) and lin[3] == pytest.approx(0.75, abs=0.01)
     assert lin[1] == pytest.approx(0.0, abs=1e-3) and lin[4] == pytest.approx(1.0, abs=1e-3)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_texture_blur_is_opencvs_16_bit_filter_to_the_bit(seed):
+    # box_blur_texture filters small kernels on float32 (OpenCV's vectorised path) and
+    # rounds as OpenCV's 16-bit filter does: the same codes as filtering the 16-bit
+    # linear values, for random, smooth and extreme textures and short to long shifts.
+    rng = np.random.default_rng(seed)
+    to_linear, to_srgb = _tables()
+    for trial in range(60):
+        mag = float(rng.choice([0.3, 1.0, 3.0, 8.0, 30.0]))
+        shift = (float(rng.uniform(-mag, mag)), float(rng.uniform(-mag, mag)))
+        h, w = (int(v) for v in rng.integers(3, 90, 2))
+        rgba = [
+            rng.integers(0, 256, (h, w, 4), dtype=np.uint8),
+            np.clip(rng.normal(120, 30, (h, w, 4)), 0, 255).astype(np.uint8),
+            rng.choice(np.array([0, 1, 254, 255], np.uint8), (h, w, 4)),
+        ][trial % 3]
+        kernel, anchor = segment_kernel(shift)
+        ref16 = cv2.filter2D(cv2.LUT(rgba, to_linear), -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
+        ref = np.empty(rgba.shape, np.uint8)
+        decode(ref16, to_srgb, ref)
+        assert np.array_equal(box_blur_texture(rgba, shift), ref), (shift, kernel.shape)
 
 
 def test_depth_plan_matches_the_scale_plan():
