@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
-from simroad.camera._blur_kernel import decode, radial_blur_depth, radial_blur_frame
+from simroad.camera._blur_kernel import decode, face_share, radial_blur_depth, radial_blur_frame
 from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
@@ -39,6 +39,7 @@ from simroad.camera._sensor_ops import (
     inv_cos_bearing,
     jpeg_roundtrip,
     motion_blur_scale,
+    near_edge_maps,
     ones_map,
     radial_motion_blur,
     response_curve,
@@ -292,8 +293,10 @@ def apply_sensor(
                     raise SimroadError(
                         f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
                     )
+                ids = np.ascontiguousarray(ids)
+                near = near_edge_maps(ids) if face_share(ids) >= NEAR_MAPS_FROM_SHARE else _NO_NEAR
                 rows = radial_blur_frame(
-                    frame, _DECODE_LUT, lin, d, np.ascontiguousarray(ids), inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
+                    frame, _DECODE_LUT, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
                 )
                 blurred = (lin, rows)
     full = float(2**params.adc_bits - 1)
@@ -333,6 +336,12 @@ def apply_sensor(
 
 
 _NO_NOISE = np.zeros((1, 1, 3), np.float32)
+#: The motion blur's plan takes near-edge maps (:func:`near_edge_maps`) from this
+#: share of face pixels in the frame on: a town's facades (~0.45) gain 40 % by
+#: them, roads with traffic and trees (0.03-0.16) lose by building them. The same
+#: plan either way.
+NEAR_MAPS_FROM_SHARE = 0.3
+_NO_NEAR = (np.zeros((0, 0), np.uint8), np.zeros((0, 0), np.uint8))
 #: Largest spacing of the motion blur's taps in pixels.
 MOTION_BLUR_STEP_PX = 1.5
 
