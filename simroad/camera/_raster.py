@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["contact_shadows", "face_table", "footprints", "mesh_data", "rasterise", "shade"]
+__all__ = ["contact_shadows", "face_table", "fade", "footprints", "mesh_data", "rasterise", "shade"]
 
 #: fast-math flags: no ``nnan``/``ninf`` (the sky's depth is inf)
 _FAST = {"nsz", "arcp", "contract", "afn"}
@@ -349,11 +349,12 @@ def footprints(v, cos, sin, reach, x, y, h, ch, sh):  # pragma: no cover - compi
 
 
 @njit(cache=True, error_model="numpy")
-def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled
+def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled  # fmt: skip
     """Darken ground pixels around vehicle footprints (ambient occlusion), in place.
 
     ``gx, gy`` (H, W): ego-frame ground point of each pixel; ``ground`` (H, W) bool:
-    the pixel sees flat ground; ``boxes`` (N, 5): ego-frame centre, heading, half
+    the pixel sees flat ground; ``face_id`` (H, W) int32: a face hides the pixel's
+    ground where >= 0 (left as it is); ``boxes`` (N, 5): ego-frame centre, heading, half
     length and half width of each footprint; ``corners`` (N, 4, 3): camera-frame
     corners of each footprint grown by ``reach`` (only pixels in their screen box are
     visited); ``cam``: ``(fx, fy, px, py, near)``. A pixel near several vehicles takes
@@ -393,7 +394,7 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
         cr, sr = np.cos(hh), np.sin(hh)
         for y in range(rect[i, 1], rect[i, 3] + 1):
             for x in range(rect[i, 0], rect[i, 2] + 1):
-                if not ground[y, x]:
+                if not ground[y, x] or face_id[y, x] >= 0:
                     continue
                 dx, dy = gx[y, x] - ex, gy[y, x] - ey
                 qx = abs(cr * dx + sr * dy) - hl
@@ -411,3 +412,17 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
             if g < 1.0:
                 for c in range(3):
                     rgb[y, x, c] = np.uint8(rgb[y, x, c] * g)
+
+
+@njit(cache=True)
+def fade(rgb, alpha, haze):  # pragma: no cover - compiled
+    """Fade the rows ``rgb`` (uint8 (h, W, 3)) into the sRGB ``haze`` (float32 (3,)) by
+    ``alpha`` (float32 (h, W, 1)), in place: ``v + alpha (haze - v)`` in float32 and
+    truncated, each operation rounded as numpy's float32 array operations do."""
+    h, w = rgb.shape[0], rgb.shape[1]
+    for y in range(h):
+        for x in range(w):
+            a = alpha[y, x, 0]
+            for c in range(3):
+                v = np.float32(rgb[y, x, c])
+                rgb[y, x, c] = np.uint8(v + a * (haze[c] - v))
