@@ -300,13 +300,16 @@ def face_table(used, colour, centroid, material, haze, cx, cy, R, base, k, remap
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: no cover - compiled
+def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, road):  # pragma: no cover - compiled
     """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
-    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and turn ``fbuf`` into
+    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, clear the road mask
+    ``road`` (bool (H, W); any other shape for none) there, and turn ``fbuf`` into
     ``remap[fbuf]`` in place."""
     W = fbuf.shape[1]
+    clear = road.shape == fbuf.shape
     for y in range(r0, r1):
         frow, crow, mrow = fbuf[y], rgb[y], material[y]
+        rrow = road[y if clear else 0]
         for xs in range(W):
             x = np.uint64(xs)  # unsigned: no wrap-around test per index
             g = frow[x]
@@ -317,6 +320,8 @@ def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: n
                 crow[x, 2] = colour[u, 2]
                 mrow[x] = material_of[u]
                 frow[x] = remap[u]
+                if clear:
+                    rrow[x] = False
 
 
 @njit(cache=True)
@@ -364,7 +369,7 @@ def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength,
     fx, fy, px, py, near = cam[0], cam[1], cam[2], cam[3], cam[4]
     N = boxes.shape[0]
     rect = np.full((N, 4), -1, dtype=np.int64)
-    y_lo, y_hi = H, -1
+    y_lo, y_hi, x_lo, x_hi = H, -1, W, -1
     for i in range(N):
         ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
         for k in range(4):  # screen box of the footprint clipped to the near plane
@@ -384,9 +389,10 @@ def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength,
         rect[i, 0], rect[i, 2] = max(0, int(np.floor(ulo))), min(W - 1, int(np.ceil(uhi)))
         rect[i, 1], rect[i, 3] = max(0, int(np.floor(vlo))), min(H - 1, int(np.ceil(vhi)))
         y_lo, y_hi = min(y_lo, rect[i, 1]), max(y_hi, rect[i, 3])
+        x_lo, x_hi = min(x_lo, rect[i, 0]), max(x_hi, rect[i, 2])
     if y_hi < y_lo:
         return
-    gain = np.ones((y_hi - y_lo + 1, W), dtype=np.float32)
+    gain = np.ones((y_hi - y_lo + 1, x_hi - x_lo + 1), dtype=np.float32)
     for i in range(N):
         if rect[i, 0] < 0:
             continue
@@ -404,11 +410,11 @@ def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength,
                 if a <= 0.0:
                     continue
                 g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / 2.2)
-                if g < gain[y - y_lo, x]:
-                    gain[y - y_lo, x] = g
+                if g < gain[y - y_lo, x - x_lo]:
+                    gain[y - y_lo, x - x_lo] = g
     for y in range(y_lo, y_hi + 1):
-        for x in range(W):
-            g = gain[y - y_lo, x]
+        for x in range(x_lo, x_hi + 1):
+            g = gain[y - y_lo, x - x_lo]
             if g < 1.0:
                 for c in range(3):
                     rgb[y, x, c] = np.uint8(rgb[y, x, c] * g)

@@ -230,12 +230,10 @@ class CameraRenderer:
         m = fp.min(axis=0) - _OBJECT_MARGIN_M
         M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
         parts = [self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)]
-        face_id, faces = self._painter.paint_parts(parts, rgb, material, depth)
+        face_id, faces = self._painter.paint_parts(parts, rgb, material, depth, road=road)
         if ground_vehicles:  # on the ground the faces leave in view
             self._contact_shadows(rgb, face_id, ground_vehicles)
-        if len(faces):
-            road &= face_id < 0
-        else:
+        if not len(faces):
             face_id = _NO_FACES
         return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces, motion_m=motion_m)
 
