@@ -13,6 +13,7 @@ ground around its footprint (a soft contact shadow, compiled in
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -287,14 +288,7 @@ class CameraRenderer:
             for lo, hi in ((a, min(b, start)), (max(a, start), b)):
                 if hi <= lo:
                     continue
-                S = np.array(
-                    [
-                        [2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5],
-                        [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5],
-                        [0.0, 0.0, 1.0],
-                    ]
-                )
-                Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(lo - r0)], [0.0, 0.0, 1.0]])
+                Ma = _level_scale(level) @ M @ _row_shift(lo - r0)
                 dst = rgb[lo:hi]
                 # A mip level's texel is the pixel's footprint (that is how the level
                 # is chosen): a smear under half of it is lost in the pixel.
@@ -354,7 +348,7 @@ class CameraRenderer:
         """The vehicles that may be seen: within range and not wholly behind the camera."""
         if not vehicles:
             return []
-        cx, cy = self.camera.position_world
+        cx, cy = (float(v) for v in self.camera.position_world)  # Python floats: no numpy scalars in the loop
         h = self.camera.pose[2]
         ch, sh = math.cos(h), math.sin(h)
         r = self.camera.config.max_range_m
@@ -399,6 +393,23 @@ class CameraRenderer:
             _AO_INNER_M,
             _AO_REACH_M,
         )
+
+
+@functools.cache
+def _level_scale(level: int) -> np.ndarray:
+    """Level-0 texel coordinates to mip level ``level``'s (read-only)."""
+    k = 2.0**-level
+    S = np.array([[k, 0.0, 0.5 * k - 0.5], [0.0, k, 0.5 * k - 0.5], [0.0, 0.0, 1.0]])
+    S.flags.writeable = False
+    return S
+
+
+@functools.lru_cache(maxsize=4096)
+def _row_shift(rows: int) -> np.ndarray:
+    """A band's destination rows to the warp's: ``rows`` rows down (read-only)."""
+    T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(rows)], [0.0, 0.0, 1.0]])
+    T.flags.writeable = False
+    return T
 
 
 def _all_bands(mip: list[tuple[int, int, int]], r0: int, height: int) -> list[tuple[int, int, int]]:
