@@ -26,10 +26,21 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["decode", "radial_blur", "radial_blur_depth"]
+__all__ = [
+    "NEAR_RADII",
+    "decode",
+    "decode_rounded",
+    "face_edges",
+    "face_share",
+    "radial_blur",
+    "radial_blur_depth",
+    "radial_blur_frame",
+]
 
 _FM = {"reassoc", "contract", "nsz", "arcp"}
 _MAX_LEVELS = 8
+#: Radii (pixels) of the two near-edge maps of the flat-face plan (:func:`face_edges`).
+NEAR_RADII = (3, 8)
 
 
 @njit(cache=True, nogil=True)
@@ -42,20 +53,55 @@ def decode(frame, table, out):
         dst[i] = table[src[i]]
 
 
+@njit(cache=True, nogil=True)
+def _round_u16(src, dst):
+    for i in range(src.size):
+        dst[i] = np.uint16(min(max(np.rint(src[i]), np.float32(0.0)), np.float32(65535.0)))
+
+
+@njit(cache=True, nogil=True)
+def decode_rounded(values, table, out):
+    """``out = table[v]`` for ``v`` each of the float32 ``values`` rounded to the nearest
+    integer (ties to even) and saturated to 0..65535, as OpenCV converts a float to 16
+    bits (``saturate_cast<ushort>``); C-contiguous arrays of one shape."""
+    src, dst = values.reshape(-1), out.reshape(-1)
+    step = 4096
+    chunk = np.empty(step, np.uint16)
+    for start in range(0, src.size, step):
+        end = min(start + step, src.size)
+        part = chunk[: end - start]
+        _round_u16(src[start:end], part)  # vectorised, apart from the table's gather
+        decode(part, table, dst[start:end])
+
+
 @njit(cache=True, nogil=True, fastmath=_FM, inline="always")
-def _plan_pixel(s, du, dv, max_step):
-    """Doublings ``n`` and the displacement of one tap spacing for expansion ``s`` at
-    offset (``du``, ``dv``) from the focus of expansion."""
-    length = s * math.sqrt(du * du + dv * dv)
+def _blur_length(s, du, dv):
+    """Blur length ``L = s |p - e|`` (pixels) for expansion ``s`` at offset (``du``, ``dv``)
+    from the focus of expansion."""
+    return s * math.sqrt(du * du + dv * dv)
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, inline="always")
+def _plan_steps(s, du, dv, length, max_step):
+    """Doublings ``n`` and the displacement of one tap spacing of a blur of ``length``
+    >= 0.5 pixels (:func:`_blur_length`)."""
     # n = ceil(log2(L / max_step + 1)): the fewest doublings whose 2**n - 1 spacings
-    # of at most max_step cover L; none below half a pixel.
-    if not length >= 0.5:
-        return 0, np.float32(0.0), np.float32(0.0)
+    # of at most max_step cover L.
     n = 1
     while n < _MAX_LEVELS and np.float32((1 << n) - 1) * max_step < length:
         n += 1
     k = s / np.float32((1 << n) - 1)
     return n, k * du, k * dv
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, inline="always")
+def _plan_pixel(s, du, dv, max_step):
+    """Doublings ``n`` and the displacement of one tap spacing for expansion ``s`` at
+    offset (``du``, ``dv``) from the focus of expansion; none below half a pixel."""
+    length = _blur_length(s, du, dv)
+    if not length >= 0.5:
+        return 0, np.float32(0.0), np.float32(0.0)
+    return _plan_steps(s, du, dv, length, max_step)
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
@@ -133,13 +179,91 @@ def _plan_depth(depth, face_id, flat_faces, inv_cos, travel, cx, foe_row, max_st
             du = np.float32(x - cx)
             forward = depth[y, x] / inv_cos[x]
             s = travel / max(forward - travel, travel)
-            n, fx, fy = _plan_pixel(s, du, dv, max_step)
-            if n > 0 and flat_faces and _stays_on_face(face_id, fid, x, y, s * du, s * dv):
-                n = 0
-            if n > 0:
-                xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
-                k += 1
-                most = max(most, n)
+            length = _blur_length(s, du, dv)
+            if not length >= 0.5:
+                continue
+            # Most face pixels blur within their face: test that before the doublings.
+            if flat_faces and _stays_on_face(face_id, fid, x, y, s * du, s * dv):
+                continue
+            n, fx, fy = _plan_steps(s, du, dv, length, max_step)
+            xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
+            k += 1
+            most = max(most, n)
+        row_ptr[y + 1] = k
+    return xs, ns, fxs, fys, row_ptr, most
+
+
+@njit(cache=True, nogil=True)
+def face_share(face_id):
+    """The fraction of the pixels of the face map (int32) that show a face (id >= 0)."""
+    ids = face_id.reshape(-1)
+    n = 0
+    for i in range(ids.size):
+        n += ids[i] >= 0
+    return n / max(ids.size, 1)
+
+
+@njit(cache=True, nogil=True)
+def face_edges(face_id, out):
+    """``out[y, x] = 1`` (uint8) where pixel ``(x, y)``'s face id (int32 (H, W)) differs
+    from its right or its lower neighbour's, else 0. Where a box of pixels holds none
+    of these, the whole box shows one face (it is connected): dilated by a radius
+    ``r`` (``cv2.dilate``), a 0 says the box of radius ``r`` about the pixel does."""
+    h, w = face_id.shape
+    for y in range(h):
+        a, b, o = face_id[y], face_id[min(y + 1, h - 1)], out[y]
+        for x in range(w - 1):
+            o[x] = (a[x] != a[x + 1]) | (a[x] != b[x])
+        o[w - 1] = a[w - 1] != b[w - 1]
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, error_model="numpy")
+def _row_tests(frow, drow, near_a, near_b, inv_cos, dus, travel, dv, s_out, length_out, test):
+    """One row of :func:`_plan_flat`, vectorised: each pixel's expansion ``s`` and blur
+    length (:func:`_plan_depth`'s arithmetic) and whether it needs the face test: a
+    face pixel that blurs half a pixel or more, unless its segment stays in a box
+    about it that shows its face alone (``near_a``, ``near_b``: 0 where the box of
+    radius :data:`NEAR_RADII` does; every tap of :func:`_stays_on_face` lies within
+    one pixel more than the segment's reach)."""
+    ra, rb = np.float32(NEAR_RADII[0] - 1), np.float32(NEAR_RADII[1] - 1)
+    for x in range(frow.size):
+        du = dus[x]
+        forward = drow[x] / inv_cos[x]
+        s = travel / max(forward - travel, travel)
+        length = _blur_length(s, du, dv)
+        reach = max(abs(s * du), abs(s * dv))
+        leaves = ((reach > ra) | (near_a[x] != 0)) & ((reach > rb) | (near_b[x] != 0))
+        s_out[x], length_out[x] = s, length
+        test[x] = (frow[x] >= 0) & (length >= 0.5) & leaves
+
+
+@njit(cache=True, nogil=True, fastmath=_FM, error_model="numpy")
+def _plan_flat(depth, face_id, near_a, near_b, inv_cos, travel, cx, foe_row, max_step):
+    """:func:`_plan_depth` with flat faces, the same plan (for ``travel > 0``), faster:
+    the arithmetic of a row is vectorised (:func:`_row_tests`) and a pixel whose
+    segment stays in a box of its face alone (the near-edge maps ``near_a``,
+    ``near_b``, uint8 (H, W), :func:`face_edges` dilated by :data:`NEAR_RADII`) skips
+    the face test, which it would pass."""
+    h, w = depth.shape
+    xs, ns, fxs, fys, row_ptr = _empty_plan(h, w)
+    dus = np.empty(w, np.float32)
+    for x in range(w):
+        dus[x] = np.float32(x - cx)
+    s_row, length_row, test = np.empty(w, np.float32), np.empty(w, np.float32), np.empty(w, np.bool_)
+    k, most = 0, 0
+    for y in range(h):
+        dv = np.float32(y - foe_row)
+        _row_tests(face_id[y], depth[y], near_a[y], near_b[y], inv_cos, dus, travel, dv, s_row, length_row, test)
+        for x in range(w):
+            if not test[x]:
+                continue
+            s, du = s_row[x], dus[x]
+            if _stays_on_face(face_id, face_id[y, x], x, y, s * du, s * dv):
+                continue
+            n, fx, fy = _plan_steps(s, du, dv, length_row[x], max_step)
+            xs[k], ns[k], fxs[k], fys[k] = x, n, fx, fy
+            k += 1
+            most = max(most, n)
         row_ptr[y + 1] = k
     return xs, ns, fxs, fys, row_ptr, most
 
@@ -239,26 +363,23 @@ def _rows_read(plan, h):
 
 
 @njit(cache=True, nogil=True, fastmath=_FM)
-def radial_blur_frame(frame, table, img, depth, face_id, inv_cos, travel, cx, foe_row, max_step):
+def radial_blur_frame(frame, table, img, depth, face_id, near, inv_cos, travel, cx, foe_row, max_step):
     """:func:`radial_blur_depth` with flat faces, from the 8-bit ``frame`` (uint8
-    (H, W, 3)): only the rows the blur reads are decoded (through ``table``) into
-    ``img``, the rest of ``img`` is left as it was. Returns the planned pixels row by
-    row, ``(xs, row_ptr)``: ``img`` differs from the decoded frame only there (see
-    :func:`simroad.camera._sensor_kernel.expose_frame`)."""
-    plan = _plan_depth(
-        depth,
-        face_id,
-        True,
-        inv_cos,
-        np.float32(travel),
-        np.float32(cx),
-        np.float32(foe_row),
-        np.float32(max_step),
-    )
+    (H, W, 3)), for ``travel > 0``: only the rows the blur reads are decoded (through
+    ``table``) into ``img``, the rest of ``img`` is left as it was. ``near``: the two
+    near-edge maps of :func:`_plan_flat`, or two empty arrays to plan with
+    :func:`_plan_depth` (the same plan). Returns those rows (bool (H,)):
+    each holds the decoded frame with the blurred pixels over it, every row with a
+    blurred pixel is one of them (see :func:`simroad.camera._sensor_kernel.expose_frame`)."""
+    args = (np.float32(travel), np.float32(cx), np.float32(foe_row), np.float32(max_step))
+    if near[0].shape == depth.shape:
+        plan = _plan_flat(depth, face_id, near[0], near[1], inv_cos, *args)
+    else:
+        plan = _plan_depth(depth, face_id, True, inv_cos, *args)
     h = frame.shape[0]
     need = _rows_read(plan, h)
     for y in range(h):
         if need[y]:
             decode(frame[y], table, img[y])
     _run_levels(img, plan, foe_row)
-    return plan[0], plan[4]
+    return need

@@ -18,7 +18,7 @@ import functools
 import cv2
 import numpy as np
 
-from simroad.camera._blur_kernel import decode
+from simroad.camera._blur_kernel import decode, decode_rounded
 
 __all__ = ["RowBlur", "blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
 
@@ -114,17 +114,39 @@ def _segment_kernel(sx: float, sy: float, taps: int) -> tuple[np.ndarray, tuple[
     return kernel, (-ox, -oy)
 
 
+#: OpenCV filters a 16-bit image through the DFT from this many kernel taps on (a
+#: float32 image from 130): below it, both sum the taps directly in float32.
+_DFT_TAPS_16U = 50
+
+
 def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.ndarray:
     """Mean of the colour of ``rgba`` (uint8 (h, w, 4) sRGB + any 4th channel, bilinear
     between texels) over the segment
     ``g + t * shift``, ``t`` in [0, 1], per texel ``g``, on linear radiance (border
-    replicated): one ``cv2.filter2D`` with :func:`segment_kernel`. Returns uint8
-    (h, w, 4), the colour blurred (four channels: OpenCV warps them faster than three;
-    the 4th is not meaningful)."""
+    replicated): one ``cv2.filter2D`` with :func:`segment_kernel`, on 16-bit linear
+    values. Returns uint8 (h, w, 4), the colour blurred (four channels: OpenCV warps
+    them faster than three; the 4th is not meaningful).
+
+    A small kernel runs on the 16-bit values held in float32: OpenCV's direct filter
+    sums the taps in float32 for a 16-bit image as for a float32 one (the same
+    products in the same order), and its float32 path is vectorised; the sums are
+    then rounded and saturated as its 16-bit result is. The same numbers, several
+    times faster."""
     to_linear, to_srgb = _tables()
-    lin = cv2.LUT(rgba, to_linear)
     kernel, anchor = segment_kernel(shift_texels)
-    out: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
-    encoded = np.empty(out.shape, np.uint8)
-    decode(out, to_srgb, encoded)  # np.take(to_srgb, out), without its index conversion
+    encoded = np.empty(rgba.shape, np.uint8)
+    if kernel.size < _DFT_TAPS_16U:
+        lin = cv2.LUT(rgba, _linear_f32())
+        out = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
+        decode_rounded(out, to_srgb, encoded)
+        return encoded
+    lin = cv2.LUT(rgba, to_linear)
+    out16: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
+    decode(out16, to_srgb, encoded)  # np.take(to_srgb, out16), without its index conversion
     return encoded
+
+
+@functools.cache
+def _linear_f32() -> np.ndarray:
+    """:func:`_tables`' sRGB code to linear radiance x 65535, as float32."""
+    return _tables()[0].astype(np.float32)

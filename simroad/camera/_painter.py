@@ -38,6 +38,7 @@ LOD_PX = 1.0
 #: ... and a decal (a face painted over a coplanar face of its solid) below this.
 DECAL_LOD_PX = 1.5
 _CACHE = 6  # prepared meshes kept (scenery windows, shadow queries, vehicles)
+_NO_ROAD = np.zeros((1, 1), dtype=bool)  # shade() without a road mask to clear
 
 
 def clip_near(poly: np.ndarray, near: float = NEAR_M) -> np.ndarray:
@@ -193,10 +194,17 @@ class MeshPainter:
         return self._paint([mesh] if len(mesh) else [], rgb, material, depth, colours, remap=False)[0]
 
     def paint_parts(
-        self, parts: Sequence[Mesh], rgb: np.ndarray, material: np.ndarray, depth: np.ndarray
+        self,
+        parts: Sequence[Mesh],
+        rgb: np.ndarray,
+        material: np.ndarray,
+        depth: np.ndarray,
+        *,
+        road: np.ndarray | None = None,
     ) -> tuple[np.ndarray, Mesh]:
         """Paint several meshes at once (e.g. the scenery and the vehicles, each
-        prepared and cached on its own) and return what was drawn.
+        prepared and cached on its own) and return what was drawn; the road mask
+        ``road`` (bool (H, W), optional) is cleared where a face is seen.
 
         Returns
         -------
@@ -208,15 +216,15 @@ class MeshPainter:
             :meth:`Mesh.concat` does).
         """
         parts = [p for p in parts if len(p)]
-        fid, used = self._paint(parts, rgb, material, depth, None, remap=True)
+        fid, used = self._paint(parts, rgb, material, depth, None, remap=True, road=road)
         sel = [m.select(np.flatnonzero(u)) for m, u in zip(parts, used)]
         return fid, _concat_keep_offsets(sel, parts)
 
     # ------------------------------------------------------------------ core
-    def _paint(self, parts, rgb, material, depth, colours, *, remap: bool):
-        """Rasterise ``parts`` into the frame; return the face map and the drawn flags
-        of every part (face indices are global over the parts unless ``remap``, which
-        numbers the drawn faces only)."""
+    def _paint(self, parts, rgb, material, depth, colours, *, remap: bool, road: np.ndarray | None = None):
+        """Rasterise ``parts`` into the frame (clearing ``road`` where a face is seen);
+        return the face map and the drawn flags of every part (face indices are global
+        over the parts unless ``remap``, which numbers the drawn faces only)."""
         cam = self.camera
         c = cam.config
         H, W = c.height, c.width
@@ -252,7 +260,7 @@ class MeshPainter:
                 u, col, p.centroid, p.mesh.material, haze, cx, cy, c.max_range_m, base, k, remap, colour, mat, table
             )
             base += len(p.verts)
-        _raster.shade(fid, r0, r1, colour, mat, table, rgb, material)
+        _raster.shade(fid, r0, r1, colour, mat, table, rgb, material, _NO_ROAD if road is None else road)
         return fid, used
 
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["contact_shadows", "face_table", "footprints", "mesh_data", "rasterise", "shade"]
+__all__ = ["contact_shadows", "face_table", "fade", "footprints", "mesh_data", "rasterise", "shade"]
 
 #: fast-math flags: no ``nnan``/``ninf`` (the sky's depth is inf)
 _FAST = {"nsz", "arcp", "contract", "afn"}
@@ -300,13 +300,16 @@ def face_table(used, colour, centroid, material, haze, cx, cy, R, base, k, remap
 
 
 @njit(cache=True, error_model="numpy", fastmath=_FAST)
-def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: no cover - compiled
+def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material, road):  # pragma: no cover - compiled
     """Write colour (uint8 (G, 3)) and material (uint8 (G,)) of every pixel's face
-    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, and turn ``fbuf`` into
+    ``fbuf`` (global index, -1 none) in rows ``[r0, r1)``, clear the road mask
+    ``road`` (bool (H, W); any other shape for none) there, and turn ``fbuf`` into
     ``remap[fbuf]`` in place."""
     W = fbuf.shape[1]
+    clear = road.shape == fbuf.shape
     for y in range(r0, r1):
         frow, crow, mrow = fbuf[y], rgb[y], material[y]
+        rrow = road[y if clear else 0]
         for xs in range(W):
             x = np.uint64(xs)  # unsigned: no wrap-around test per index
             g = frow[x]
@@ -317,6 +320,8 @@ def shade(fbuf, r0, r1, colour, material_of, remap, rgb, material):  # pragma: n
                 crow[x, 2] = colour[u, 2]
                 mrow[x] = material_of[u]
                 frow[x] = remap[u]
+                if clear:
+                    rrow[x] = False
 
 
 @njit(cache=True)
@@ -349,11 +354,12 @@ def footprints(v, cos, sin, reach, x, y, h, ch, sh):  # pragma: no cover - compi
 
 
 @njit(cache=True, error_model="numpy")
-def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled
+def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength, inner, reach):  # pragma: no cover - compiled  # fmt: skip
     """Darken ground pixels around vehicle footprints (ambient occlusion), in place.
 
     ``gx, gy`` (H, W): ego-frame ground point of each pixel; ``ground`` (H, W) bool:
-    the pixel sees flat ground; ``boxes`` (N, 5): ego-frame centre, heading, half
+    the pixel sees flat ground; ``face_id`` (H, W) int32: a face hides the pixel's
+    ground where >= 0 (left as it is); ``boxes`` (N, 5): ego-frame centre, heading, half
     length and half width of each footprint; ``corners`` (N, 4, 3): camera-frame
     corners of each footprint grown by ``reach`` (only pixels in their screen box are
     visited); ``cam``: ``(fx, fy, px, py, near)``. A pixel near several vehicles takes
@@ -363,7 +369,7 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
     fx, fy, px, py, near = cam[0], cam[1], cam[2], cam[3], cam[4]
     N = boxes.shape[0]
     rect = np.full((N, 4), -1, dtype=np.int64)
-    y_lo, y_hi = H, -1
+    y_lo, y_hi, x_lo, x_hi = H, -1, W, -1
     for i in range(N):
         ulo, uhi, vlo, vhi = np.inf, -np.inf, np.inf, -np.inf
         for k in range(4):  # screen box of the footprint clipped to the near plane
@@ -383,9 +389,10 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
         rect[i, 0], rect[i, 2] = max(0, int(np.floor(ulo))), min(W - 1, int(np.ceil(uhi)))
         rect[i, 1], rect[i, 3] = max(0, int(np.floor(vlo))), min(H - 1, int(np.ceil(vhi)))
         y_lo, y_hi = min(y_lo, rect[i, 1]), max(y_hi, rect[i, 3])
+        x_lo, x_hi = min(x_lo, rect[i, 0]), max(x_hi, rect[i, 2])
     if y_hi < y_lo:
         return
-    gain = np.ones((y_hi - y_lo + 1, W), dtype=np.float32)
+    gain = np.ones((y_hi - y_lo + 1, x_hi - x_lo + 1), dtype=np.float32)
     for i in range(N):
         if rect[i, 0] < 0:
             continue
@@ -393,7 +400,7 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
         cr, sr = np.cos(hh), np.sin(hh)
         for y in range(rect[i, 1], rect[i, 3] + 1):
             for x in range(rect[i, 0], rect[i, 2] + 1):
-                if not ground[y, x]:
+                if not ground[y, x] or face_id[y, x] >= 0:
                     continue
                 dx, dy = gx[y, x] - ex, gy[y, x] - ey
                 qx = abs(cr * dx + sr * dy) - hl
@@ -403,11 +410,25 @@ def contact_shadows(rgb, ground, gx, gy, boxes, corners, cam, strength, inner, r
                 if a <= 0.0:
                     continue
                 g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / 2.2)
-                if g < gain[y - y_lo, x]:
-                    gain[y - y_lo, x] = g
+                if g < gain[y - y_lo, x - x_lo]:
+                    gain[y - y_lo, x - x_lo] = g
     for y in range(y_lo, y_hi + 1):
-        for x in range(W):
-            g = gain[y - y_lo, x]
+        for x in range(x_lo, x_hi + 1):
+            g = gain[y - y_lo, x - x_lo]
             if g < 1.0:
                 for c in range(3):
                     rgb[y, x, c] = np.uint8(rgb[y, x, c] * g)
+
+
+@njit(cache=True)
+def fade(rgb, alpha, haze):  # pragma: no cover - compiled
+    """Fade the rows ``rgb`` (uint8 (h, W, 3)) into the sRGB ``haze`` (float32 (3,)) by
+    ``alpha`` (float32 (h, W, 1)), in place: ``v + alpha (haze - v)`` in float32 and
+    truncated, each operation rounded as numpy's float32 array operations do."""
+    h, w = rgb.shape[0], rgb.shape[1]
+    for y in range(h):
+        for x in range(w):
+            a = alpha[y, x, 0]
+            for c in range(3):
+                v = np.float32(rgb[y, x, c])
+                rgb[y, x, c] = np.uint8(v + a * (haze[c] - v))

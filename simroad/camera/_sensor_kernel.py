@@ -95,16 +95,6 @@ def _gain_row(vig: np.ndarray, wb: np.ndarray, out: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
-def _patch_row(buf: np.ndarray, lin: np.ndarray, xs: np.ndarray, k0: int, k1: int) -> None:
-    """Overwrite the row's values of the pixels ``xs[k0:k1]`` with ``lin``'s (the
-    motion-blurred ones; every other pixel of ``lin`` is the decoded frame's)."""
-    for k in range(k0, k1):
-        x = xs[k]
-        for c in range(3):
-            buf[3 * x + c] = lin[x, c]
-
-
-@njit(cache=True, nogil=True)
 def expose_frame(
     frame: np.ndarray,
     decode: np.ndarray,
@@ -116,7 +106,7 @@ def expose_frame(
     table: np.ndarray,
     out: np.ndarray,
     meter_from: int,
-    blurred: tuple[np.ndarray, np.ndarray, np.ndarray],
+    blurred: tuple[np.ndarray, np.ndarray],
     gain_rw: np.ndarray,
     gain: np.ndarray,
 ) -> float:
@@ -148,9 +138,10 @@ def expose_frame(
     meter_from : int
         First row of the metering window.
     blurred : tuple
-        ``(lin, xs, row_ptr)``: the motion blur's linear frame (float32 (H, W, 3)) and
-        its pixels, row by row (``xs[row_ptr[y]:row_ptr[y + 1]]``, the blur's plan),
-        whose values replace ``frame``'s; ``row_ptr`` of length 1 for none.
+        ``(lin, rows)``: the motion blur's linear frame (float32 (H, W, 3)) and the
+        rows of it to take instead of ``frame``'s (bool (H,), of length 1 for none;
+        :func:`simroad.camera._blur_kernel.radial_blur_frame`): they are the frame
+        decoded, with the blurred pixels over it.
     gain_rw, gain : ndarray, float32, (3W,)
         Scratch for one row's gains: one buffer, written through ``gain_rw`` and read
         through ``gain``, a read-only view of it (the exposure loop is compiled for a
@@ -160,8 +151,8 @@ def expose_frame(
     scale, full = expo
     oy, ox, sign, k_shot, floor = noise
     noisy = k_shot > 0.0 or floor > 0.0
-    lin, xs, row_ptr = blurred
-    patched = row_ptr.size == h + 1
+    lin, rows = blurred
+    patched = rows.size == h
     flat = frame.reshape(h, 3 * w)
     dst = out.reshape(h, 3 * w)
     buf = np.empty(3 * w, np.float32)
@@ -169,12 +160,14 @@ def expose_frame(
     zeros = np.zeros(3 * w, np.float32)
     total = np.int64(0)
     for y in range(h):
-        _fill_row(flat[y], decode, buf)
-        if patched and row_ptr[y + 1] > row_ptr[y]:
-            _patch_row(buf, lin[y], xs, row_ptr[y], row_ptr[y + 1])
+        if patched and rows[y]:
+            row = lin[y].reshape(-1)  # decoded and blurred already
+        else:
+            _fill_row(flat[y], decode, buf)
+            row = buf
         _gain_row(vig[y], wb, gain_rw)
         normal = field[oy + y].reshape(-1)[3 * ox : 3 * ox + 3 * w] if noisy else zeros
-        row_total = _expose_row(buf, gain, scale, full, normal, (sign, k_shot, floor), dn)
+        row_total = _expose_row(row, gain, scale, full, normal, (sign, k_shot, floor), dn)
         if y >= meter_from:
             total += row_total
         _lookup_row(dn, table, dst[y])

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
-from simroad.camera._blur_kernel import radial_blur
+from simroad.camera._blur_kernel import NEAR_RADII, face_edges, radial_blur
 from simroad.noise.radiometry import linear_to_srgb
 
 __all__ = [
@@ -27,6 +27,7 @@ __all__ = [
     "inv_cos_bearing",
     "jpeg_roundtrip",
     "motion_blur_scale",
+    "near_edge_maps",
     "ones_map",
     "radial_motion_blur",
     "response_curve",
@@ -157,6 +158,27 @@ def motion_blur_scale(depth: np.ndarray, *, focal_px: float, cx: float, travel_m
     np.subtract(x, np.float32(travel_m), out=x)
     np.maximum(x, np.float32(travel_m), out=x)  # a point closer than one travel: s capped at 1
     return np.divide(np.float32(travel_m), x, out=x)
+
+
+def near_edge_maps(face_id: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where a face's motion blur may reach another face: for each radius ``r`` of
+    :data:`~simroad.camera._blur_kernel.NEAR_RADII`, uint8 (H, W), 0 where every pixel
+    within ``r`` (chessboard distance) shows the pixel's own face id.
+
+    Parameters
+    ----------
+    face_id : ndarray, int32, (H, W)
+        The renderer's face map (-1 for the ground and the sky), C-contiguous.
+    """
+    edges = np.empty(face_id.shape, np.uint8)
+    face_edges(face_id, edges)
+    a, b = (cv2.dilate(edges, _square(r)) for r in NEAR_RADII)
+    return a, b
+
+
+@functools.lru_cache(maxsize=4)
+def _square(radius: int) -> np.ndarray:
+    return np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
 
 
 def radial_motion_blur(

@@ -111,6 +111,8 @@ class PinholeCamera:
             ]
         )
         self._cam_ego = np.array([c.forward_offset_m, 0.0, -c.mount_height_m])
+        # ego ground (X, Y, 1) -> image: K R ([X, Y, 0] - C), the pose's constant factor
+        self._K_ego = self.K @ np.column_stack([self._R_ego[:, 0], self._R_ego[:, 1], -self._R_ego @ self._cam_ego])
         self._ego_ground = self._pixel_ground_map()
         ex, ey = self._ego_ground[..., 0], self._ego_ground[..., 1]
         dist = np.hypot(ex - c.forward_offset_m, ey)
@@ -130,9 +132,7 @@ class PinholeCamera:
         A = np.eye(3)
         A[:2, :2] = self._R_we2
         A[:2, 2] = -self._R_we2 @ self._pos  # world -> ego ground
-        # ego ground (X, Y, 1) -> camera: R * ([X, Y, 0] - C)
-        M = np.column_stack([self._R_ego[:, 0], self._R_ego[:, 1], -self._R_ego @ self._cam_ego])
-        self.H_image_from_world = self.K @ M @ A
+        self.H_image_from_world = self._K_ego @ A
         self.H_world_from_image = np.linalg.inv(self.H_image_from_world)
 
     @property

@@ -13,6 +13,7 @@ ground around its footprint (a soft contact shadow, compiled in
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -27,6 +28,7 @@ from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
 from simroad.camera.vehicles import vehicles_mesh
+from simroad.camera.window import Window
 from simroad.camera.world import SKY, WorldRaster
 
 __all__ = ["AO_STRENGTH", "CameraRenderer", "Frame", "VehicleBox"]
@@ -183,6 +185,7 @@ class CameraRenderer:
         self._ground = np.ascontiguousarray(camera.ground_valid)
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
         self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
+        self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -213,82 +216,94 @@ class CameraRenderer:
             *fp.min(axis=0), *fp.max(axis=0), lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2]))
         )
         c = cam.config
-        rgb = self._sky_rgb.copy()
-        material = np.full((c.height, c.width), SKY, dtype=np.uint8)
-        road = np.zeros((c.height, c.width), dtype=bool)
-        r0, r1 = self._r0, self._r1
+        r0 = self._r0
+        # Rows above r0 are sky; the ground's warps write every pixel of the rows below.
+        rgb = np.empty((c.height, c.width, 3), dtype=np.uint8)
+        rgb[:r0] = self._sky_rgb[:r0]
+        material = np.empty((c.height, c.width), dtype=np.uint8)
+        material[:r0] = SKY
+        road = np.empty((c.height, c.width), dtype=bool)
+        road[:r0] = False
         if r0 < c.height:
-            # Warp only the rows that can see ground (destination offset by r0).
-            M = win.texel_from_world @ cam.H_world_from_image @ self._shift
-            size = (c.width, c.height - r0)
-            flags = cv2.WARP_INVERSE_MAP
-            alpha = cv2.warpPerspective(
-                win.alpha, M, size, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE
-            )
-            np.greater_equal(alpha, 128, out=road[r0:])  # exact GT from the full-resolution SDF
-            cv2.warpPerspective(
-                win.material,
-                M,
-                size,
-                dst=material[r0:],
-                flags=cv2.INTER_NEAREST | flags,
-                borderMode=cv2.BORDER_REPLICATE,
-            )
-            ground = np.empty((c.height - r0, c.width, 3), dtype=np.uint8)
-            blur = self._ground_blur(motion_m) if motion_m > 0.0 else None
-            start = blur[0] if blur is not None else c.height
-            heading = (math.cos(pose[2]), math.sin(pose[2]))
-            for level, a, b in self._bands:  # colour from the mip level that fits the rows
-                for lo, hi in ((a, min(b, start)), (max(a, start), b)):
-                    if hi <= lo:
-                        continue
-                    S = np.array(
-                        [
-                            [2.0**-level, 0.0, 0.5 * 2.0**-level - 0.5],
-                            [0.0, 2.0**-level, 0.5 * 2.0**-level - 0.5],
-                            [0.0, 0.0, 1.0],
-                        ]
-                    )
-                    Ma = S @ M @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(lo - r0)], [0.0, 0.0, 1.0]])
-                    dst = ground[lo - r0 : hi - r0]
-                    # A mip level's texel is the pixel's footprint (that is how the level
-                    # is chosen): a smear under half of it is lost in the pixel.
-                    texels = motion_m * 2.0**-level / win.texel_m
-                    if lo >= start and blur is not None and (level == 0 or texels >= 0.5):
-                        self._warp_blurred(win, level, Ma, dst, motion_m, heading)
-                    else:
-                        band = cv2.warpPerspective(
-                            win.level(level),
-                            Ma,
-                            (c.width, hi - lo),
-                            flags=cv2.INTER_LINEAR | flags,
-                            borderMode=cv2.BORDER_REPLICATE,
-                        )
-                        cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
-            fr = self._fade_rows
-            if fr.stop > fr.start:
-                band = ground[fr.start - r0 : fr.stop - r0].astype(np.float32)
-                band += self._fade_alpha * (self._haze - band)
-                ground[fr.start - r0 : fr.stop - r0] = band.astype(np.uint8)
-            rgb[r0:] = ground
-            if r1 > r0:  # restore the sky where mixed rows look beyond the range
-                mixed = self._mixed_sky
-                np.copyto(rgb[r0:r1], self._sky_rgb[r0:r1], where=mixed[..., None])
-                material[r0:r1][mixed] = SKY
-                road[r0:r1][mixed] = False
+            self._draw_ground(win, pose, motion_m, rgb, material, road)
         depth = cam.depth.copy()  # each frame its own (callers keep them)
         ground_vehicles = self._in_view(vehicles)
-        if ground_vehicles:
-            self._contact_shadows(rgb, ground_vehicles)
         m = fp.min(axis=0) - _OBJECT_MARGIN_M
         M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
         parts = [self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)]
-        face_id, faces = self._painter.paint_parts(parts, rgb, material, depth)
-        if len(faces):
-            road &= face_id < 0
-        else:
+        face_id, faces = self._painter.paint_parts(parts, rgb, material, depth, road=road)
+        if ground_vehicles:  # on the ground the faces leave in view
+            self._contact_shadows(rgb, face_id, ground_vehicles)
+        if not len(faces):
             face_id = _NO_FACES
         return Frame(rgb, material, road, depth, list(vehicles), face_id=face_id, faces=faces, motion_m=motion_m)
+
+    # ------------------------------------------------------------ the ground
+    def _draw_ground(
+        self,
+        win: Window,
+        pose: tuple[float, float, float],
+        motion_m: float,
+        rgb: np.ndarray,
+        material: np.ndarray,
+        road: np.ndarray,
+    ) -> None:
+        """Rows ``r0`` on of colour, material and road mask: the window warped, the
+        mixed rows' sky restored where they look beyond the range."""
+        c = self.camera.config
+        r0, r1 = self._r0, self._r1
+        # Warp only the rows that can see ground (destination offset by r0).
+        M = win.texel_from_world @ self.camera.H_world_from_image @ self._shift
+        size = (c.width, c.height - r0)
+        flags = cv2.WARP_INVERSE_MAP
+        alpha = cv2.warpPerspective(
+            win.alpha, M, size, dst=self._alpha, flags=cv2.INTER_LINEAR | flags, borderMode=cv2.BORDER_REPLICATE
+        )
+        np.greater_equal(alpha, 128, out=road[r0:])  # exact GT from the full-resolution SDF
+        cv2.warpPerspective(
+            win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE
+        )
+        self._colour_bands(win, M, pose, motion_m, rgb)
+        fr = self._fade_rows
+        if fr.stop > fr.start:
+            _raster.fade(rgb[fr], self._fade_alpha, self._haze)
+        if r1 > r0:  # restore the sky where mixed rows look beyond the range
+            mixed = self._mixed_sky
+            np.copyto(rgb[r0:r1], self._sky_rgb[r0:r1], where=mixed[..., None])
+            material[r0:r1][mixed] = SKY
+            road[r0:r1][mixed] = False
+
+    def _colour_bands(
+        self, win: Window, M: np.ndarray, pose: tuple[float, float, float], motion_m: float, rgb: np.ndarray
+    ) -> None:
+        """The ground's colour in rows ``r0`` on, band by band of rows from the mip level
+        that fits them, the rows that blur by half a pixel or more from the blurred
+        texture."""
+        c = self.camera.config
+        r0 = self._r0
+        blur = self._ground_blur(motion_m) if motion_m > 0.0 else None
+        start = blur[0] if blur is not None else c.height
+        heading = (math.cos(pose[2]), math.sin(pose[2]))
+        for level, a, b in self._bands:  # colour from the mip level that fits the rows
+            for lo, hi in ((a, min(b, start)), (max(a, start), b)):
+                if hi <= lo:
+                    continue
+                Ma = _level_scale(level) @ M @ _row_shift(lo - r0)
+                dst = rgb[lo:hi]
+                # A mip level's texel is the pixel's footprint (that is how the level
+                # is chosen): a smear under half of it is lost in the pixel.
+                texels = motion_m * 2.0**-level / win.texel_m
+                if lo >= start and blur is not None and (level == 0 or texels >= 0.5):
+                    self._warp_blurred(win, level, Ma, dst, motion_m, heading)
+                else:
+                    band = cv2.warpPerspective(
+                        win.level(level),
+                        Ma,
+                        (c.width, hi - lo),
+                        flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                        borderMode=cv2.BORDER_REPLICATE,
+                    )
+                    cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
 
     # ------------------------------------------------------- motion blur
     def _ground_blur(self, motion_m: float) -> tuple[int, np.ndarray] | None:
@@ -333,7 +348,7 @@ class CameraRenderer:
         """The vehicles that may be seen: within range and not wholly behind the camera."""
         if not vehicles:
             return []
-        cx, cy = self.camera.position_world
+        cx, cy = (float(v) for v in self.camera.position_world)  # Python floats: no numpy scalars in the loop
         h = self.camera.pose[2]
         ch, sh = math.cos(h), math.sin(h)
         r = self.camera.config.max_range_m
@@ -345,14 +360,15 @@ class CameraRenderer:
                 out.append(v)
         return out
 
-    def _contact_shadows(self, rgb: np.ndarray, vehicles: Sequence[VehicleBox]) -> None:
+    def _contact_shadows(self, rgb: np.ndarray, face_id: np.ndarray, vehicles: Sequence[VehicleBox]) -> None:
         """Darken the ground under and around each vehicle (ambient occlusion).
 
         The occlusion is a smooth function of the signed ground distance ``sd`` (m) to
         the vehicle's footprint: ``AO_STRENGTH`` from 0.25 m under the car, 0.7 of it at
         the footprint's edge, none 0.45 m outside (where footprints meet, the
         strongest). Material and road mask are untouched (the road is still road in a
-        shadow). Only the pixels in the screen box of each grown footprint are visited
+        shadow). Only the ground pixels no face hides (``face_id`` < 0) in the screen
+        box of each grown footprint are visited
         (:func:`simroad.camera._raster.contact_shadows`).
         """
         cam = self.camera
@@ -365,8 +381,35 @@ class CameraRenderer:
         M, o = self._painter._affine()
         cam_v = np.array([k[0, 0], k[1, 1], k[0, 2], k[1, 2], NEAR_M])
         _raster.contact_shadows(
-            rgb, self._ground, self._gx, self._gy, boxes, corners @ M + o, cam_v, AO_STRENGTH, _AO_INNER_M, _AO_REACH_M
+            rgb,
+            self._ground,
+            face_id,
+            self._gx,
+            self._gy,
+            boxes,
+            corners @ M + o,
+            cam_v,
+            AO_STRENGTH,
+            _AO_INNER_M,
+            _AO_REACH_M,
         )
+
+
+@functools.cache
+def _level_scale(level: int) -> np.ndarray:
+    """Level-0 texel coordinates to mip level ``level``'s (read-only)."""
+    k = 2.0**-level
+    S = np.array([[k, 0.0, 0.5 * k - 0.5], [0.0, k, 0.5 * k - 0.5], [0.0, 0.0, 1.0]])
+    S.flags.writeable = False
+    return S
+
+
+@functools.lru_cache(maxsize=4096)
+def _row_shift(rows: int) -> np.ndarray:
+    """A band's destination rows to the warp's: ``rows`` rows down (read-only)."""
+    T = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, float(rows)], [0.0, 0.0, 1.0]])
+    T.flags.writeable = False
+    return T
 
 
 def _all_bands(mip: list[tuple[int, int, int]], r0: int, height: int) -> list[tuple[int, int, int]]:

@@ -29,7 +29,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
-from simroad.camera._blur_kernel import decode, radial_blur_depth, radial_blur_frame
+from simroad.camera._blur_kernel import decode, face_share, radial_blur_depth, radial_blur_frame
 from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
@@ -39,6 +39,7 @@ from simroad.camera._sensor_ops import (
     inv_cos_bearing,
     jpeg_roundtrip,
     motion_blur_scale,
+    near_edge_maps,
     ones_map,
     radial_motion_blur,
     response_curve,
@@ -275,7 +276,7 @@ def apply_sensor(
     fx, cx, cy = float(camera.K[0, 0]), float(camera.K[0, 2]), float(camera.K[1, 2])
     gain = 2.0**ev
     frame = np.ascontiguousarray(rgb)
-    blurred: tuple[np.ndarray, np.ndarray, np.ndarray] = _NOT_BLURRED
+    blurred: tuple[np.ndarray, np.ndarray] = _NOT_BLURRED
     if params.motion_blur:
         travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
         if travel > 0.0:
@@ -292,10 +293,12 @@ def apply_sensor(
                     raise SimroadError(
                         f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
                     )
-                xs, row_ptr = radial_blur_frame(
-                    frame, _DECODE_LUT, lin, d, np.ascontiguousarray(ids), inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
+                ids = np.ascontiguousarray(ids)
+                near = near_edge_maps(ids) if face_share(ids) >= NEAR_MAPS_FROM_SHARE else _NO_NEAR
+                rows = radial_blur_frame(
+                    frame, _DECODE_LUT, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
                 )
-                blurred = (lin, xs, row_ptr)
+                blurred = (lin, rows)
     full = float(2**params.adc_bits - 1)
     wb = _NEUTRAL if white_balance is None else np.asarray(white_balance, np.float32).reshape(3)
     exponent = params.vignetting_exponent if params.vignetting else None
@@ -333,6 +336,12 @@ def apply_sensor(
 
 
 _NO_NOISE = np.zeros((1, 1, 3), np.float32)
+#: The motion blur's plan takes near-edge maps (:func:`near_edge_maps`) from this
+#: share of face pixels in the frame on: a town's facades (~0.45) gain 40 % by
+#: them, roads with traffic and trees (0.03-0.16) lose by building them. The same
+#: plan either way.
+NEAR_MAPS_FROM_SHARE = 0.3
+_NO_NEAR = (np.zeros((0, 0), np.uint8), np.zeros((0, 0), np.uint8))
 #: Largest spacing of the motion blur's taps in pixels.
 MOTION_BLUR_STEP_PX = 1.5
 
@@ -349,9 +358,8 @@ _DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).r
 
 
 _NEUTRAL = np.ones(3, np.float32)
-_NO_PLAN = np.zeros(1, np.int64)
-#: No motion blur: ``expose_frame``'s ``blurred`` patches nothing.
-_NOT_BLURRED = (np.zeros((1, 1, 3), np.float32), np.zeros(1, np.int32), _NO_PLAN)
+#: No motion blur: ``expose_frame``'s ``blurred`` replaces no row.
+_NOT_BLURRED = (np.zeros((1, 1, 3), np.float32), np.zeros(1, np.bool_))
 
 
 class Sensor:

@@ -26,6 +26,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError
+from simroad.camera._tile_kernel import compose_tile
 from simroad.camera.codes import (  # re-exported: importers of simroad.camera.world keep working
     ASPHALT,
     BUILDING,
@@ -231,10 +232,14 @@ class WorldRaster:
         self._extra_bbox = [(*m.min(axis=0), *m.max(axis=0)) for m in self.extra_markings]
         self.palette = palette or draw_palette(rng)
         self.shapes = lane_shapes(network, self.palette.verge_width_m)
+        self._marking_bbox = {id(s): [(*m.min(axis=0), *m.max(axis=0)) for m in s.markings] for s in self.shapes}
         codes = {"roadside": ROADSIDE, "shoulder": SHOULDER, "asphalt": ASPHALT, "marking": MARKING}
         codes |= {"kerb": KERB, "sidewalk": SIDEWALK}
         tex = ground_textures(self.palette, _TEX_SIZE, self.texel_m, rng)
         self._tex = {codes[name]: t for name, t in tex.items()}
+        slot = np.full(256, -1, dtype=np.int64)  # material code -> its texture in the stack
+        slot[list(self._tex)] = np.arange(len(self._tex))
+        self._textures = (np.stack(list(self._tex.values())), slot)
         self._wear_lut = wear_factor(np.arange(_WEAR_STEPS, dtype=np.float32) / _WEAR_RES, self.palette.asphalt_age)
         self._tiles: OrderedDict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = OrderedDict()
         self._tile_levels: OrderedDict[tuple[int, int, int], np.ndarray] = OrderedDict()
@@ -276,41 +281,20 @@ class WorldRaster:
         ]
         sdf = self._tile_sdf(visible, x0, y0)
         material = self._bands(sdf)
-        road = sdf >= 0.0
         paint = np.zeros((T, T), dtype=np.uint8)
         cover = np.zeros((T, T), dtype=np.uint8)  # anti-aliased paint coverage, for the colour only
-        polys = [m for s in visible for m in s.markings]
+        # A lane's markings run along all of it: only those near the tile can touch it
+        # (two texels of margin hold the anti-aliased edge).
+        near = (x0 - 2 * _t, y0 - 2 * _t, x1 + 2 * _t, y1 + 2 * _t)
+        polys = [m for s in visible for m, b in zip(s.markings, self._marking_bbox[id(s)]) if _overlaps(b, near)]
         polys += [m for m, b in zip(self.extra_markings, self._extra_bbox) if _overlaps(b, (x0, y0, x1, y1))]
         for m in polys:
             pts = [self._fixed(m, x0, y0)]
             cv2.fillPoly(paint, pts, 1, lineType=cv2.LINE_8, shift=_SHIFT)
             cv2.fillPoly(cover, pts, 255, lineType=cv2.LINE_AA, shift=_SHIFT)
-        material[(paint > 0) & road] = MARKING
-
         ti, tj = (j * T) % _TEX_SIZE, (i * T) % _TEX_SIZE
-        sl = (slice(ti, ti + T), slice(tj, tj + T))
-        # The ground under the paint first (paint is asphalt-coloured where worn) ...
-        under = np.where(material == MARKING, np.uint8(ASPHALT), material)
-        rgb = self._tex[ROADSIDE][sl].copy()
-        for code, tex in self._tex.items():
-            sel = under == code
-            if code not in (ROADSIDE, MARKING) and sel.any():
-                rgb[sel] = tex[sl][sel]
-        asphalt = under == ASPHALT
-        if asphalt.any():
-            k = np.minimum((sdf[asphalt] * _WEAR_RES).astype(np.int32), _WEAR_STEPS - 1)
-            rgb[asphalt] = np.clip(rgb[asphalt] * self._wear_lut[k][:, None], 0, 255).astype(np.uint8)
-        # ... then the paint over it by its anti-aliased coverage: a 15 cm line is only
-        # 1-2 texels wide, and hard texel steps would show as jaggies up close.
-        painted = cover > 0
-        if painted.any():
-            a = (cover[painted].astype(np.float32) / 255.0)[:, None]
-            base = rgb[painted].astype(np.float32)
-            mark = self._tex[MARKING][sl][painted].astype(np.float32)
-            rgb[painted] = np.clip(base + a * (mark - base), 0, 255).astype(np.uint8)
         rgba = np.empty((T, T, 4), dtype=np.uint8)
-        rgba[..., :3] = rgb
-        rgba[..., 3] = np.clip(np.rint(128.0 + 254.0 * sdf), 0, 255)
+        compose_tile(material, sdf, paint, cover, *self._textures, ti, tj, self._wear_lut, _WEAR_RES, rgba)
         return rgba, material
 
     def _bands(self, sdf: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import cv2
 import numpy as np
 import pytest
 from highway_env.road.lane import LineType, StraightLane
@@ -13,9 +14,9 @@ from highway_env.road.road import RoadNetwork
 
 from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, SensorParams, WorldRaster
-from simroad.camera._blur_kernel import radial_blur, radial_blur_depth
-from simroad.camera._ground_blur import RowBlur, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
-from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale
+from simroad.camera._blur_kernel import _plan_depth, _plan_flat, decode, radial_blur, radial_blur_depth
+from simroad.camera._ground_blur import RowBlur, _tables, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
+from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale, near_edge_maps
 from simroad.noise.radiometry import srgb_to_linear
 
 
@@ -104,6 +105,29 @@ def test_texture_blur_averages_linear_light():
     assert lin[1] == pytest.approx(0.0, abs=1e-3) and lin[4] == pytest.approx(1.0, abs=1e-3)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_texture_blur_is_opencvs_16_bit_filter_to_the_bit(seed):
+    # box_blur_texture filters small kernels on float32 (OpenCV's vectorised path) and
+    # rounds as OpenCV's 16-bit filter does: the same codes as filtering the 16-bit
+    # linear values, for random, smooth and extreme textures and short to long shifts.
+    rng = np.random.default_rng(seed)
+    to_linear, to_srgb = _tables()
+    for trial in range(60):
+        mag = float(rng.choice([0.3, 1.0, 3.0, 8.0, 30.0]))
+        shift = (float(rng.uniform(-mag, mag)), float(rng.uniform(-mag, mag)))
+        h, w = (int(v) for v in rng.integers(3, 90, 2))
+        rgba = [
+            rng.integers(0, 256, (h, w, 4), dtype=np.uint8),
+            np.clip(rng.normal(120, 30, (h, w, 4)), 0, 255).astype(np.uint8),
+            rng.choice(np.array([0, 1, 254, 255], np.uint8), (h, w, 4)),
+        ][trial % 3]
+        kernel, anchor = segment_kernel(shift)
+        ref16 = cv2.filter2D(cv2.LUT(rgba, to_linear), -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
+        ref = np.empty(rgba.shape, np.uint8)
+        decode(ref16, to_srgb, ref)
+        assert np.array_equal(box_blur_texture(rgba, shift), ref), (shift, kernel.shape)
+
+
 def test_depth_plan_matches_the_scale_plan():
     cam = PinholeCamera(CameraConfig(width=64, height=48, hfov_deg=90.0, pitch_deg=0.0))
     f, cx = float(cam.K[0, 0]), float(cam.K[0, 2])
@@ -115,6 +139,38 @@ def test_depth_plan_matches_the_scale_plan():
     radial_blur_depth(b, depth, ids, False, inv_cos_bearing(64, f, cx), 0.3, cx, float(cam.horizon_row), 1.5)
     np.testing.assert_allclose(a, b, atol=1e-5)
     assert not np.allclose(a, img)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_flat_face_plan_with_near_edge_maps_is_the_plan_to_the_bit(seed):
+    # Facades with windows and boxes in front, over the ground, at the frame's edges
+    # too: the plan that skips the face test in boxes of one face (near-edge maps,
+    # vectorised arithmetic) lists the same pixels with the same numbers.
+    rng = np.random.default_rng(seed)
+    h, w = 90, 160
+    cam = PinholeCamera(CameraConfig(width=w, height=h))
+    f, cx, foe = float(cam.K[0, 0]), float(cam.K[0, 2]), float(cam.horizon_row)
+    ids = np.full((h, w), -1, np.int32)
+    depth = cam.depth.astype(np.float32)
+    for k in range(40):
+        y0, x0 = int(rng.integers(-10, h)), int(rng.integers(-10, w))
+        dy, dx = (int(v) for v in rng.integers(1, 40, 2))
+        sl = (slice(max(y0, 0), max(y0 + dy, 0)), slice(max(x0, 0), max(x0 + dx, 0)))
+        ids[sl] = k
+        depth[sl] = rng.uniform(0.5, 60.0)
+    near = near_edge_maps(ids)
+    inv = inv_cos_bearing(w, f, cx)
+    planned = 0
+    for travel in (0.005, 0.05, 0.3, 2.0):
+        args = (inv, np.float32(travel), np.float32(cx), np.float32(foe), np.float32(1.5))
+        ref = _plan_depth(depth, ids, True, *args)
+        got = _plan_flat(depth, ids, near[0], near[1], *args)
+        n = int(ref[4][-1])
+        assert np.array_equal(ref[4], got[4]) and ref[5] == got[5]
+        for a, b in zip(ref[:4], got[:4]):
+            assert np.array_equal(a[:n], b[:n]), travel
+        planned += n
+    assert planned > 1000
 
 
 def test_sensor_leaves_the_ground_to_the_renderer_and_skips_flat_face_interiors():
