@@ -13,7 +13,7 @@ from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.sensor import SensorParams
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
-from simroad.noise import MODELS, parse_noise
+from simroad.noise import MODELS, WindscreenParams, parse_noise
 
 __all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
@@ -63,6 +63,11 @@ class RoadCamConfig:
         Density scale of the world's scenery (trees, poles, signs, buildings, walls,
         guard rails, overpasses; :mod:`simroad.camera.scenery`) in [0, 5]: 0 is a
         bare world, 1 the scenario's profile, higher values denser.
+    windscreen : bool or WindscreenParams
+        With rain or snow, drops on the windscreen and the wiper
+        (:mod:`simroad.noise.windscreen`, noise mask ``"windscreen"``): True (default)
+        with the default :class:`WindscreenParams` (a rain-sensing wiper), False for a
+        dry glass, or the parameters, e.g. ``WindscreenParams(wiper_period_s=1.5)``.
     """
 
     scenario: str = "racetrack"
@@ -77,6 +82,7 @@ class RoadCamConfig:
     max_offroad_m: float = 3.0
     camera_effects: bool | SensorParams = True
     scenery: float = 1.0
+    windscreen: bool | WindscreenParams = True
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -100,6 +106,9 @@ class RoadCamConfig:
         if not isinstance(self.camera_effects, SensorParams):
             check_bool("camera_effects", self.camera_effects)
             object.__setattr__(self, "camera_effects", bool(self.camera_effects))
+        if not isinstance(self.windscreen, WindscreenParams):
+            check_bool("windscreen", self.windscreen)
+            object.__setattr__(self, "windscreen", bool(self.windscreen))
 
     @property
     def sensor_params(self) -> SensorParams | None:
