@@ -209,7 +209,8 @@ def draw_drops(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: floa
     Returns
     -------
     ndarray bool (H, W)
-        Where the drops cover at least half of the lens's aperture (``A >= 0.5``).
+        Where the drops cover at least a tenth of the lens's aperture
+        (``A >= COVERED``, :data:`simroad.noise._drops_kernel.COVERED`).
     """
     h, w = lin.shape[:2]
     covered = np.zeros(h * w, bool)

@@ -20,7 +20,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["splat_drops"]
+__all__ = ["COVERED", "splat_drops"]
+
+#: A pixel is in the windscreen's mask where drops cover at least this fraction of the
+#: lens's aperture (a tenth of its light comes from the glass: about where a drop's
+#: change of the picture becomes noticeable at ordinary contrast).
+COVERED = 0.1
 
 
 @njit(cache=True, nogil=True)
@@ -43,15 +48,15 @@ def _bilinear(image: np.ndarray, x: np.float32, y: np.float32) -> tuple[float, f
 @njit(cache=True, nogil=True)
 def _blend(lin: np.ndarray, acc: np.ndarray, touched: np.ndarray, count: int, covered: np.ndarray) -> None:
     """Blend the accumulated drops into the touched pixels, mark those the drops cover
-    at least half of, and zero their accumulators."""
+    at least :data:`COVERED` of, and zero their accumulators."""
     width = lin.shape[1]
-    one = np.float32(1.0)
+    one, cover_min = np.float32(1.0), np.float32(COVERED)
     for k in range(count):
         p = touched[k]
         y = p // width
         x = p - y * width
         a = acc[p, 0]
-        covered[p] = a >= np.float32(0.25)
+        covered[p] = a >= cover_min
         scale = one / max(a, one)
         keep = one - a * scale
         for c in range(3):
@@ -94,7 +99,8 @@ def splat_drops(
     touched : ndarray int32 (H·W,)
         Scratch.
     covered : ndarray bool (H·W,)
-        Set where the drops' summed coverage is at least 0.5 (others left as they are).
+        Set where the drops' summed coverage is at least :data:`COVERED` (others left
+        as they are).
     """
     u, v, sprite = drops
     start, length, uniform, du, dv, alpha, w_scene, src_du, src_dv = bank

@@ -69,6 +69,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.noise._drops import DropField, SpriteBank, draw_drops
+from simroad.noise._drops_kernel import COVERED
 from simroad.noise._glass import Glass, GlassView, contact_radius, defocus_diameter_m, glass_view
 from simroad.noise._wiper import blade_angle, blade_coverage, swept_interval
 from simroad.noise.context import FrameState
@@ -328,7 +329,10 @@ class WindscreenModel(NoiseModel):
     Attributes
     ----------
     drops : DropField
-        The drops on the glass (glass positions, contact radii, image positions).
+        The drops on the glass (glass positions, contact radii, image positions,
+        sprites).
+    blade_visible : bool
+        Whether the wiper blade crossed the view in the last frame.
     """
 
     name = "windscreen"
@@ -355,8 +359,14 @@ class WindscreenModel(NoiseModel):
         """Nothing falls on the glass: the frames are left unchanged."""
         return self.rain_rate_mm_h == 0.0 and self.flake_density_m3 == 0.0
 
+    @property
+    def coverage(self) -> float:
+        """Fraction of the glass in view the drops cover (0 before the first frame)."""
+        return 0.0 if self._view is None else self.drops.coverage(self._view.view_area_m2)
+
     def _on_reset(self) -> None:
         self.drops = DropField()
+        self.blade_visible = False
         self._clock: float | None = None  # s since the first frame
         self._cycle_start = -math.inf  # start of the latest wipe cycle, s
         self._view: GlassView | None = None
@@ -474,8 +484,9 @@ class WindscreenModel(NoiseModel):
 
     def _draw_blade(self, lin: np.ndarray, view: GlassView, now: float, covered: np.ndarray) -> None:
         """The blade, defocused, where it crosses the view at ``now`` (marked in ``covered``
-        where it hides at least half of a pixel)."""
+        where it hides at least :data:`COVERED` of a pixel)."""
         p = self.params
+        self.blade_visible = False
         starts = [s for s in self._cycles(now - 1e-9, now) if s <= now]
         if not starts:
             return
@@ -495,4 +506,5 @@ class WindscreenModel(NoiseModel):
         r = slice(int(rows[0]), int(rows[-1]) + 1)
         c = cov[r][..., None]
         lin[r] = lin[r] * (1.0 - c) + c * np.float32(p.blade_radiance)
-        covered[r] |= cov[r] >= 0.5
+        covered[r] |= cov[r] >= COVERED
+        self.blade_visible = True
