@@ -1,18 +1,18 @@
 """The windscreen's per-frame pass: every drop's sprite splatted and blended, compiled.
 
-One loop over the drops and their sprites' pixels (numba, ``cache=True``; the first
-call of a fresh install compiles for a few seconds and writes the cache next to this
-module). For each drop pixel it adds the defocused coverage, the part of it that
-carries the refracted scene, and that scene into an accumulator: a bilinear sample
-of the low-passed frame at the pixel's source (clamped at the border), or, for a
-drop drawn in one colour (a tiny one), its mean view: one sample of the widely
-averaged frame at the drop's centre; the rest of its coverage, the totally reflecting
-rim, shows ``rim`` times that mean view. Then it blends the touched pixels:
-``(1 − A)·background + Σ w_scene·scene + Σ(alpha − w_scene)·rim·mean``, the drop terms
-scaled by ``1/A`` where the summed coverage ``A`` passes 1. The sums run in drop
-order without fast-math, so the result is the same whether the kernel was just
-compiled or loaded from the cache. :func:`simroad.noise._drops.draw_drops_reference`
-is the numpy reference the tests hold it to.
+Loops over the drops and their sprites' pixels (numba, ``cache=True``; the first call
+of a fresh install compiles for a few seconds and writes the cache next to this
+module): the drops' summed coverage ``A`` per pixel, the background dimmed to
+``1 − A`` (A clipped at 1), then each drop pixel's light added, scaled by ``1/A``
+where ``A`` passes 1. A drop pixel's light is the part of its coverage that carries
+the refracted scene times that scene (a bilinear sample of the reduced frame at the
+pixel's source, clamped at the border; for a drop drawn in one colour, a tiny one,
+its mean view: one sample of the widely averaged frame at its centre), plus the rest
+of its coverage, the totally reflecting rim, times ``rim`` times its mean view. The
+sums run in drop order without fast-math, so the result is the same whether the
+kernel was just compiled or loaded from the cache.
+:func:`simroad.noise._drops.draw_drops_reference` is the numpy reference the tests
+hold it to.
 """
 
 from __future__ import annotations
@@ -46,23 +46,45 @@ def _bilinear(image: np.ndarray, x: np.float32, y: np.float32) -> tuple[float, f
 
 
 @njit(cache=True, nogil=True)
-def _blend(lin: np.ndarray, acc: np.ndarray, touched: np.ndarray, count: int, covered: np.ndarray) -> None:
-    """Blend the accumulated drops into the touched pixels, mark those the drops cover
-    at least :data:`COVERED` of, and zero their accumulators."""
+def _coverage(drops: tuple, bank: tuple, shape: tuple, cover: np.ndarray, touched: np.ndarray) -> int:
+    """Sum every drop pixel's ``alpha`` into ``cover``; list the pixels touched."""
+    u, v, sprite = drops
+    start, length, du, dv, alpha = bank
+    height, width = shape
+    count = 0
+    for d in range(u.size):
+        s = sprite[d]
+        if s < 0:
+            continue
+        for i in range(start[s], start[s] + length[s]):
+            x, y = u[d] + du[i], v[d] + dv[i]
+            if x < 0 or x >= width or y < 0 or y >= height:
+                continue
+            p = y * width + x
+            if cover[p] == 0.0:
+                touched[count] = p
+                count += 1
+            cover[p] += alpha[i]
+    return count
+
+
+@njit(cache=True, nogil=True)
+def _attenuate(lin: np.ndarray, cover: np.ndarray, touched: np.ndarray, count: int, covered: np.ndarray) -> None:
+    """Dim each touched pixel's background by the drops' coverage ``A`` (clipped at 1),
+    mark where ``A >= COVERED``, and leave in ``cover`` the drops' scale ``1/max(A, 1)``."""
     width = lin.shape[1]
     one, cover_min = np.float32(1.0), np.float32(COVERED)
     for k in range(count):
         p = touched[k]
         y = p // width
         x = p - y * width
-        a = acc[p, 0]
+        a = cover[p]
         covered[p] = a >= cover_min
         scale = one / max(a, one)
         keep = one - a * scale
         for c in range(3):
-            lin[y, x, c] = lin[y, x, c] * keep + acc[p, 1 + c] * scale
-        for j in range(4):
-            acc[p, j] = 0.0
+            lin[y, x, c] *= keep
+        cover[p] = scale
 
 
 @njit(cache=True, nogil=True)
@@ -74,19 +96,23 @@ def splat_drops(
     drops: tuple[np.ndarray, np.ndarray, np.ndarray],
     bank: tuple[np.ndarray, ...],
     rim: float,
-    acc: np.ndarray,
+    cover: np.ndarray,
     touched: np.ndarray,
     covered: np.ndarray,
 ) -> int:
     """Blend the drops into ``lin`` in place; returns the number of pixels touched.
+
+    Three passes: the drops' summed coverage per pixel, the background dimmed by it,
+    then every drop pixel's light added (scaled by ``1/A`` where ``A`` passes 1). The
+    scratch is one float per pixel, so the pass stays in the CPU's caches.
 
     Parameters
     ----------
     lin : ndarray float32 (H, W, 3)
         The linear frame (C-contiguous).
     small, wide : ndarray float32 (h, w, 3)
-        The frame averaged over ``factor`` x ``factor`` blocks, and that further
-        averaged over a drop's field of view.
+        The frame reduced by ``factor``, and that further averaged over a drop's field
+        of view (:func:`simroad.noise._drops.scene_low_pass`).
     drops : tuple
         ``(u, v, sprite)``: centre pixel (int32) and sprite id (int32, -1: not drawn).
     bank : tuple
@@ -94,7 +120,7 @@ def splat_drops(
         sprite bank (see :class:`simroad.noise._drops.SpriteBank`).
     rim : float
         What a drop's totally reflecting rim shows, as a fraction of its mean view.
-    acc : ndarray float32 (H·W, 4)
+    cover : ndarray float32 (H·W,)
         Zeros on entry; left zero on return.
     touched : ndarray int32 (H·W,)
         Scratch.
@@ -105,8 +131,9 @@ def splat_drops(
     u, v, sprite = drops
     start, length, uniform, du, dv, alpha, w_scene, src_du, src_dv = bank
     height, width = lin.shape[0], lin.shape[1]
+    count = _coverage(drops, (start, length, du, dv, alpha), (height, width), cover, touched)
+    _attenuate(lin, cover, touched, count, covered)
     inv, half, rim32 = np.float32(1.0 / factor), np.float32(0.5), np.float32(rim)
-    n_touched = 0
     for d in range(u.size):
         s = sprite[d]
         if s < 0:
@@ -121,17 +148,14 @@ def splat_drops(
             x, y = u[d] + du[i], v[d] + dv[i]
             if x < 0 or x >= width or y < 0 or y >= height:
                 continue
-            p = y * width + x
-            if acc[p, 0] == 0.0:
-                touched[n_touched] = p
-                n_touched += 1
-            ws = w_scene[i]
-            wr = alpha[i] - ws
-            acc[p, 0] += alpha[i]
+            scale = cover[y * width + x]
+            ws = w_scene[i] * scale
+            wr = alpha[i] * scale - ws
             if not one_colour:
                 r, g, b = _bilinear(small, cx + src_du[i] * inv, cy + src_dv[i] * inv)
-            acc[p, 1] += ws * r + wr * dr
-            acc[p, 2] += ws * g + wr * dg
-            acc[p, 3] += ws * b + wr * db
-    _blend(lin, acc, touched, n_touched, covered)
-    return n_touched
+            lin[y, x, 0] += ws * r + wr * dr
+            lin[y, x, 1] += ws * g + wr * dg
+            lin[y, x, 2] += ws * b + wr * db
+    for k in range(count):
+        cover[touched[k]] = 0.0
+    return count

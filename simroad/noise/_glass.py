@@ -49,8 +49,8 @@ __all__ = [
 WATER_N = 1.333
 #: Drops whose image half-width is below this (px) are drawn in one colour: their mean view.
 UNIFORM_BELOW_PX = 1.5
-#: Sprite pixels the drop covers less than this (a hundredth of the aperture) are left out.
-MIN_ALPHA = 0.01
+#: Sprite pixels the drop covers less than this (a fiftieth of the aperture) are left out.
+MIN_ALPHA = 0.02
 _MAX_RANGE_M = 2.0  # rays that graze the glass: seen this far along the ray at most
 
 
@@ -159,6 +159,7 @@ class GlassView:
     area_cdf: np.ndarray
     _R: np.ndarray
     _K: np.ndarray
+    _K_inv: np.ndarray
     _normal: np.ndarray
     _origin: np.ndarray
     _up: np.ndarray
@@ -171,7 +172,7 @@ class GlassView:
     def pixel_to_glass(self, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Glass coordinates ``(gx, gy)`` (m) and distance (m) of image points ``(u, v)``."""
         uv1 = np.stack([np.asarray(u, float), np.asarray(v, float), np.ones(np.shape(u))])
-        rays = self._R.T @ (np.linalg.inv(self._K) @ uv1)  # ego frame, (3, N)
+        rays = self._R.T @ (self._K_inv @ uv1)  # ego frame, (3, N)
         nr = self._normal @ rays
         t = np.where(nr > 1e-9, (self._normal @ self._origin) / np.maximum(nr, 1e-9), np.inf)
         t = np.minimum(t, _MAX_RANGE_M / np.linalg.norm(rays, axis=0))
@@ -224,6 +225,7 @@ def _glass_view(config: CameraConfig, glass: Glass) -> GlassView:
         area_cdf=np.cumsum(area.ravel()),
         _R=geom.R_ego,
         _K=K,
+        _K_inv=np.linalg.inv(K),
         _normal=normal,
         _origin=origin,
         _up=up,

@@ -371,6 +371,7 @@ class WindscreenModel(NoiseModel):
         self._cycle_start = -math.inf  # start of the latest wipe cycle, s
         self._view: GlassView | None = None
         self._pivot_maps: tuple[np.ndarray, np.ndarray, float, float] | None = None
+        self._rate_cache: tuple[tuple[float, float], float, np.ndarray] | None = None
 
     # ----------------------------------------------------------- the stage
     def windscreen(self, state: FrameState) -> None:
@@ -384,17 +385,17 @@ class WindscreenModel(NoiseModel):
         else:
             before = self._clock
             now = self._clock = before + ctx.dt
-            self._arrive(view, speed, int(rng.poisson(self._rate(view, speed)[0] * ctx.dt)), rng)
-            v = slide_velocity(self.drops.radius, speed, p)
-            self.drops.move(view, v != 0.0, v * ctx.dt)
+            self._arrive(view, speed, ctx.dt, rng)
+            if self._may_slide(speed):
+                v = slide_velocity(self.drops.radius, speed, p)
+                self.drops.move(view, v != 0.0, v * ctx.dt)
             self._wipe(before, now)
             if p.wiper_period_s == "auto" and now - self._cycle_start >= 2.0 * p.wiper_stroke_s:
                 if self.drops.coverage(view.view_area_m2) >= p.sensor_coverage:
                     self._cycle_start = now  # the rain sensor starts a cycle
         factor = max(1, round(state.shape[1] / 80))
-        covered = draw_drops(state.lin, self.drops, self._bank(view), rim=p.rim_brightness, factor=factor)
-        self._draw_blade(state.lin, view, now, covered)
-        state.covered = covered
+        state.covered = draw_drops(state.lin, self.drops, self._bank(view), rim=p.rim_brightness, factor=factor)
+        self._draw_blade(state.lin, view, now, state.covered)
 
     def _bank(self, view: GlassView) -> SpriteBank:
         key = (view.config, view.glass, self.params.contact_angle_deg)
@@ -402,6 +403,16 @@ class WindscreenModel(NoiseModel):
         if bank is None:
             bank = _BANKS.setdefault(key, SpriteBank(view, self.params.contact_angle_deg))
         return bank
+
+    def _may_slide(self, speed: float) -> bool:
+        """Whether any drop may run: below √2 times ``airflow_speed_m_s`` only drops
+        bigger than ``slide_radius_mm`` can (see :func:`slide_velocity`)."""
+        p = self.params
+        if len(self.drops) == 0:
+            return False
+        return (
+            speed >= math.sqrt(2.0) * p.airflow_speed_m_s or float(self.drops.radius.max()) > p.slide_radius_mm * 1e-3
+        )
 
     def _glass_view(self, state: FrameState) -> GlassView:
         p = self.params
@@ -415,44 +426,52 @@ class WindscreenModel(NoiseModel):
 
     # ------------------------------------------------------------ arrivals
     def _rate(self, view: GlassView, speed: float) -> tuple[float, np.ndarray]:
-        """Arrivals per second on the glass in view, and each size bin's share."""
-        n, _, w = self._bins
-        tilt = math.radians(self.params.glass_tilt_deg)
-        per_bin = n * (speed * math.cos(tilt) + w * math.sin(tilt))
-        total = float(per_bin.sum())
-        return total * view.view_area_m2, per_bin / total if total > 0 else per_bin
+        """Arrivals per second on the glass in view, and the cumulative share of the
+        size bins (cached for the last speed)."""
+        key = (speed, view.view_area_m2)
+        if self._rate_cache is None or self._rate_cache[0] != key:
+            n, _, w = self._bins
+            tilt = math.radians(self.params.glass_tilt_deg)
+            per_bin = n * (speed * math.cos(tilt) + w * math.sin(tilt))
+            total = float(per_bin.sum())
+            cum = np.cumsum(per_bin / total) if total > 0 else np.zeros_like(per_bin)
+            self._rate_cache = (key, total * view.view_area_m2, cum)
+        return self._rate_cache[1], self._rate_cache[2]
 
-    def _arrive(self, view: GlassView, speed: float, count: int, rng: np.random.Generator) -> None:
-        """``count`` drops form at uniform points of the glass in view, while there is room."""
+    def _arrive(self, view: GlassView, speed: float, duration_s: float, rng: np.random.Generator) -> None:
+        """The drops that hit the glass in view during ``duration_s`` form at uniform
+        points of it (the centres of the pixels that see them), while there is room."""
+        rate, cum_share = self._rate(view, speed)
+        count = int(rng.poisson(rate * duration_s)) if rate > 0.0 else 0
         if count <= 0:
             return
         p = self.params
-        _, share = self._rate(view, speed)
-        radius = self._bins[1][rng.choice(len(share), size=count, p=share)]
-        pick = np.searchsorted(view.area_cdf, rng.random(count) * view.area_cdf[-1], side="right")
-        row, col = np.divmod(np.minimum(pick, view.area_cdf.size - 1), view.config.width)
-        gx, gy, _ = view.pixel_to_glass(col + rng.random(count) - 0.5, row + rng.random(count) - 0.5)
+        size = np.minimum(np.searchsorted(cum_share, rng.random(count) * cum_share[-1]), len(cum_share) - 1)
+        radius = self._bins[1][size]
+        pixel = np.searchsorted(view.area_cdf, rng.random(count) * view.area_cdf[-1], side="right")
+        pixel = np.minimum(pixel, view.area_cdf.size - 1)  # uniform on the glass: by each pixel's glass area
         room = p.max_coverage - self.drops.coverage(view.view_area_m2)
         fits = np.cumsum(np.pi * radius**2) / view.view_area_m2 <= room
         fits[max(0, p.max_drops - len(self.drops)) :] = False
-        self.drops.add(view, self._bank(view), gx[fits], gy[fits], radius[fits], min_px=p.min_drop_px)
+        self.drops.add(view, self._bank(view), pixel[fits], radius[fits], min_px=p.min_drop_px)
 
     def _start(self, view: GlassView, speed: float, rng: np.random.Generator) -> None:
         """The first frame: the glass as the rain left it since the last wipe."""
         p = self.params
         self.drops, self._view, self._clock = DropField(), view, 0.0
         self._pivot_maps = None
-        rate, share = self._rate(view, speed)
+        rate, cum_share = self._rate(view, speed)
         if p.wiper_period_s is None:
             since = _OFF_FILL_S
         elif p.wiper_period_s == "auto":  # somewhere between two triggers of the sensor
+            share = np.diff(cum_share, prepend=0.0)
             per_s = rate * float(np.sum(share * np.pi * self._bins[1] ** 2)) / view.view_area_m2
             since = float(rng.random()) * (p.sensor_coverage / per_s if per_s > 0 else 0.0)
             self._cycle_start = -math.inf
         else:
             since = float(rng.random()) * float(p.wiper_period_s)
             self._cycle_start = -since
-        self._arrive(view, speed, int(rng.poisson(rate * since)), rng)
+        self._arrive(view, speed, since, rng)
         self._wipe(-since, 0.0)
 
     # --------------------------------------------------------------- wiper
@@ -491,14 +510,18 @@ class WindscreenModel(NoiseModel):
         if not starts:
             return
         alpha = blade_angle(now - starts[-1], p.wiper_stroke_s, math.radians(p.wiper_arc_deg))
+        edge = p.glass.aperture_m  # the defocus disc, measured on the glass
         if self._pivot_maps is None:
             rel_x, rel_y = view.gx - np.float32(p.wiper_pivot_m[0]), view.gy - np.float32(p.wiper_pivot_m[1])
             ang = np.arctan2(rel_y, rel_x)
-            self._pivot_maps = (rel_x, rel_y, float(ang.min()), float(ang.max()))
+            lo, hi = float(ang.min()), float(ang.max())
+            if hi - lo > math.pi:  # the view surrounds the pivot's left: no simple range
+                lo, hi = -math.inf, math.inf
+            margin = (0.5 * p.wiper_width_m + edge) / max(float(np.hypot(rel_x, rel_y).min()), 1e-3)
+            self._pivot_maps = (rel_x, rel_y, lo - margin, hi + margin)
         rel_x, rel_y, lo, hi = self._pivot_maps
-        if not lo - 0.2 <= alpha <= hi + 0.2:
+        if not lo <= alpha <= hi:  # the blade is out of view
             return
-        edge = p.glass.aperture_m  # the defocus disc, measured on the glass
         cov = blade_coverage(rel_x, rel_y, alpha, width_m=p.wiper_width_m, length_m=p.wiper_length_m, edge_m=edge)
         rows = np.flatnonzero(cov.any(axis=1))
         if len(rows) == 0:
