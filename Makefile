@@ -48,6 +48,7 @@ figures: $(STAMP)
 	$(BIN)/simroad figure camera --out docs/camera.png
 	$(BIN)/simroad figure weather --out docs/weather.png
 	$(BIN)/simroad figure friction --out docs/friction.png
+	$(BIN)/simroad figure windscreen --out docs/windscreen.png
 	$(BIN)/simroad evaluate-detector --seeds 1 --frames 2 --figure docs/qualitative.png
 
 clean:

@@ -292,9 +292,9 @@ def cmd_filter_effect(args: argparse.Namespace) -> int:
 
 def cmd_figure(args: argparse.Namespace) -> int:
     """``simroad figure``: draw a README figure."""
-    if args.what == "weather" and Path(args.out).suffix.lower() != ".png":
+    if args.what in ("weather", "windscreen") and Path(args.out).suffix.lower() != ".png":
         raise SimroadError(
-            f"--out: the weather gallery is written as PNG; give a name ending in .png, got {args.out!r}."
+            f"--out: the {args.what} figure is written as PNG; give a name ending in .png, got {args.out!r}."
         )
     if args.what == "camera":
         path = camera_figure(args.out, seed=args.seed)
@@ -304,6 +304,10 @@ def cmd_figure(args: argparse.Namespace) -> int:
         from simroad.experiments.friction_figure import friction_figure
 
         path = friction_figure(args.out)
+    elif args.what == "windscreen":
+        from simroad.noise.gallery import render_wiper_sequence
+
+        path = render_wiper_sequence(args.out, seed=args.seed)
     else:
         from simroad.noise.gallery import render_gallery
 

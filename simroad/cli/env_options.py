@@ -1,6 +1,6 @@
 """The environment options every ``simroad`` subcommand that renders frames shares.
 
-Weather, scenario, camera, scenery, sensor and friction flags, with their defaults read from
+Weather (with the windscreen), scenario, camera, scenery, sensor and friction flags, with their defaults read from
 the library (:class:`RoadCamConfig`, :class:`CameraConfig`, :class:`EpisodeSpec`), and
 :func:`env_options` turning the parsed flags back into RoadCam keywords.
 """
@@ -19,7 +19,7 @@ from simroad.cli import types as T
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES
-from simroad.noise import NOISE_NAMES
+from simroad.noise import NOISE_NAMES, WIPER_MODES, WindscreenParams
 
 __all__ = ["add_env_options", "default_of", "env_options", "names"]
 
@@ -96,6 +96,7 @@ def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) ->
         help="a perfect pinhole camera: no sensor (exposure, noise, response curve, vignetting, motion blur)",
     )
     _add_friction_options(g)
+    _add_windscreen_options(g)
 
 
 def _mu(text: str) -> float:
@@ -129,8 +130,43 @@ def _add_friction_options(g: argparse._ArgumentGroup) -> None:
     )
 
 
+def _wiper_period(text: str) -> float | str:
+    """A wiper period as typed: a mode name or seconds, checked by :class:`WindscreenParams`."""
+    value: float | str = text.strip().lower()
+    if value not in WIPER_MODES:
+        try:
+            value = float(value)
+        except ValueError:
+            raise SimroadError(
+                f"wiper_period_s: expected seconds or one of {', '.join(WIPER_MODES)}, got {text!r}."
+            ) from None
+    WindscreenParams(wiper_period_s=value)
+    return value
+
+
+def _add_windscreen_options(g: argparse._ArgumentGroup) -> None:
+    """``--no-windscreen`` and ``--wiper-period`` (drops on the glass with rain or snow)."""
+    g.add_argument(
+        "--no-windscreen",
+        action="store_true",
+        help="no drops on the windscreen with rain or snow (and no wiper)",
+    )
+    bad = [("unknown name", "sometimes"), ("shorter than a cycle", "0.5"), ("negative", "-1"), ("not finite", "nan")]
+    g.add_argument(
+        "--wiper-period",
+        type=T.checked(_wiper_period, "wiper period", bad=bad),
+        default=None,
+        help=f"seconds between wipe cycles, or {names(tuple(WIPER_MODES))} (default: auto, a rain sensor)",
+    )
+
+
 def env_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The RoadCam keywords of the camera, scenery, sensor and friction flags (``--width`` ...)."""
+    """The RoadCam keywords of the camera, scenery, sensor, friction and windscreen flags (``--width`` ...)."""
+    if args.no_windscreen and args.wiper_period is not None:
+        raise SimroadError("--wiper-period: there is no wiper with --no-windscreen; drop one of them.")
+    windscreen: bool | WindscreenParams = not args.no_windscreen
+    if args.wiper_period is not None:
+        windscreen = WindscreenParams(wiper_period_s=args.wiper_period)
     return {
         "width": args.width,
         "height": args.height,
@@ -141,4 +177,5 @@ def env_options(args: argparse.Namespace) -> dict[str, Any]:
         "friction": not args.no_friction,
         "road_surface": args.road_surface,
         "mu": args.mu,
+        "windscreen": windscreen,
     }

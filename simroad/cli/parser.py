@@ -378,9 +378,9 @@ def _add_pictures(sub: Any) -> None:
     p = sub.add_parser(
         "figure",
         help="draw a documentation figure",
-        description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery) or 'places' (the same places clean and in low sun).",
+        description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery), 'places' (the same places clean and in low sun), 'friction' (braking distance and cornering speed vs weather) or 'windscreen' (drops on the glass and a wiper pass).",
     )
-    p.add_argument("what", choices=("camera", "weather", "places", "friction"), help="which figure")
+    p.add_argument("what", choices=("camera", "weather", "places", "friction", "windscreen"), help="which figure")
     p.add_argument("--out", type=T.output_file(figure_suffixes), required=True, help="output PNG path")
     seed = default_of(camera_figure, "seed")
     p.add_argument(

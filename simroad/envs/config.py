@@ -14,7 +14,7 @@ from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.sensor import SensorParams
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
-from simroad.noise import MODELS, parse_noise
+from simroad.noise import MODELS, WindscreenParams, parse_noise
 
 __all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
@@ -76,6 +76,11 @@ class RoadCamConfig:
     mu : float, optional
         A fixed friction coefficient in (0, 1.5] everywhere (with
         ``road_surface="auto"`` only). Both are refused with ``friction=False``.
+    windscreen : bool or WindscreenParams
+        With rain or snow, drops on the windscreen and the wiper
+        (:mod:`simroad.noise.windscreen`, noise mask ``"windscreen"``): True (default)
+        with the default :class:`WindscreenParams` (a rain-sensing wiper), False for a
+        dry glass, or the parameters, e.g. ``WindscreenParams(wiper_period_s=1.5)``.
     """
 
     scenario: str = "racetrack"
@@ -93,6 +98,7 @@ class RoadCamConfig:
     friction: bool = True
     road_surface: str = "auto"
     mu: float | None = None
+    windscreen: bool | WindscreenParams = True
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -117,6 +123,9 @@ class RoadCamConfig:
         if not isinstance(self.camera_effects, SensorParams):
             check_bool("camera_effects", self.camera_effects)
             object.__setattr__(self, "camera_effects", bool(self.camera_effects))
+        if not isinstance(self.windscreen, WindscreenParams):
+            check_bool("windscreen", self.windscreen)
+            object.__setattr__(self, "windscreen", bool(self.windscreen))
 
     @property
     def sensor_params(self) -> SensorParams | None:

@@ -65,7 +65,8 @@ class RoadCamEnv(gym.Env):
     ## Info
     ``road_mask`` (bool HxW, visible drivable surface), ``depth`` (float32 HxW,
     ground distance in m, inf for sky), ``material`` (uint8 HxW material codes),
-    ``noise_masks`` (dict noise -> bool HxW), ``pose`` (float64 [x, y, heading]),
+    ``noise_masks`` (dict noise -> bool HxW; with rain or snow also ``"windscreen"``,
+    the drops on the glass and the wiper blade), ``pose`` (float64 [x, y, heading]),
     ``speed_m_s``, ``lateral_offset_m`` (to the centre of the closest lane, + is
     right), ``heading_error_rad``, ``lane_width_m``, ``on_road``, ``crashed``,
     ``time_s``, ``rewards``; ``mu`` (the tyre–road friction coefficient under the
@@ -184,7 +185,10 @@ class RoadCamEnv(gym.Env):
         self.weather = None
         if self.config.noise != "clear":
             self.weather = make_weather(
-                self.config.noise, severity=self.config.severity, params=self.config.noise_params
+                self.config.noise,
+                severity=self.config.severity,
+                params=self.config.noise_params,
+                windscreen=self.config.windscreen,
             )
             self.weather.reset(weather_rng, world=self.world)
         self.grip = None

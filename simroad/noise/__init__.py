@@ -28,6 +28,10 @@ glare    sun 0° azimuth (ahead on highway-env's straights) at 45 − 40·s degr
 fog      visibility 2000·(30/2000)^s m (β_ext = 3.912/visibility), airlight 0.7
 =======  ====================================================================
 
+Rain and snow also wet the windscreen (``windscreen=True`` by default; mask
+``"windscreen"``): adherent drops collected at the rain's rate and the car's speed,
+each a defocused water lens, and a wiper (:mod:`simroad.noise.windscreen`).
+
 See ``docs/weather.md`` for the physics and the references.
 """
 
@@ -42,6 +46,7 @@ from simroad.noise.compose import (
     check_noise_params,
     make_weather,
     parse_noise,
+    windscreen_model,
 )
 from simroad.noise.context import NoiseContext, flat_ground_camera
 from simroad.noise.fog import FogModel, FogParams
@@ -51,6 +56,7 @@ from simroad.noise.radiometry import GAMMA, MASK_THRESHOLD, change_mask, linear_
 from simroad.noise.rain import RainModel, RainParams
 from simroad.noise.shadow import ShadowModel, ShadowParams
 from simroad.noise.snow import SnowModel, SnowParams
+from simroad.noise.windscreen import WIPER_MODES, WindscreenModel, WindscreenParams
 
 __all__ = [
     "GAMMA",
@@ -58,6 +64,7 @@ __all__ = [
     "MODELS",
     "NOISE_NAMES",
     "STAGES",
+    "WIPER_MODES",
     "FogModel",
     "FogParams",
     "GlareModel",
@@ -75,6 +82,8 @@ __all__ = [
     "SnowModel",
     "SnowParams",
     "Weather",
+    "WindscreenModel",
+    "WindscreenParams",
     "apply_noise",
     "change_mask",
     "check_noise_params",
@@ -83,4 +92,5 @@ __all__ = [
     "make_weather",
     "parse_noise",
     "srgb_to_linear",
+    "windscreen_model",
 ]

@@ -9,6 +9,11 @@ the surface first (wet road, settled snow, shadows, specular glare), then the
 atmosphere (haze, fog), then the particles nearest the camera, then the lens (veil,
 bloom) and the sensor's saturation.
 
+Rain and snow also wet the windscreen: unless ``windscreen=False``, a weather with
+rain or snow carries a :class:`~simroad.noise.windscreen.WindscreenModel` (drops on
+the glass and the wiper, stage ``windscreen``, mask ``"windscreen"``) fed with the
+rain's rate and the snow's flake density.
+
 Composed models share one world: the rain's water film feeds the glare's wet lobe,
 fog dims the sun for shadows and glare, shadows block the glare's specular lobe, and
 ``"shadow+glare"`` casts the shadows with the glare's sun.
@@ -35,6 +40,7 @@ from simroad.noise.model import NoiseModel, NoiseResult, Params, run_models
 from simroad.noise.rain import RainModel
 from simroad.noise.shadow import ShadowModel
 from simroad.noise.snow import SnowModel
+from simroad.noise.windscreen import WindscreenModel, WindscreenParams
 
 __all__ = [
     "MODELS",
@@ -45,6 +51,7 @@ __all__ = [
     "check_noise_params",
     "make_weather",
     "parse_noise",
+    "windscreen_model",
 ]
 
 NOISE_NAMES = ("clear", "rain", "snow", "shadow", "glare", "fog")
@@ -101,6 +108,9 @@ class Weather:
         In [0, 1], keyword-only; mapped to each model's parameters.
     params : NoiseParams, optional
         Physical parameters that replace the severity mapping for some noises.
+    windscreen : bool or WindscreenParams
+        Drops on the windscreen and the wiper with rain or snow (True: the default
+        :class:`WindscreenParams`; False: none).
 
     Attributes
     ----------
@@ -108,9 +118,17 @@ class Weather:
         Active noises in canonical order (empty for ``"clear"``).
     severity : float
     models : dict str -> NoiseModel
+        One model per noise, plus ``"windscreen"`` (last) with rain or snow.
     """
 
-    def __init__(self, names: tuple[str, ...], *, severity: float, params: NoiseParams | None = None) -> None:
+    def __init__(
+        self,
+        names: tuple[str, ...],
+        *,
+        severity: float,
+        params: NoiseParams | None = None,
+        windscreen: bool | WindscreenParams = True,
+    ) -> None:
         if isinstance(names, str) or not isinstance(names, (tuple, list)):
             raise SimroadError(
                 f"names: expected a tuple of noise names such as ('rain', 'glare') (or use make_weather('rain+glare')), "
@@ -123,6 +141,9 @@ class Weather:
             n: MODELS[n](given[n] if n in given else MODELS[n].params_type.from_severity(self.severity))
             for n in self.names
         }
+        glass = windscreen_model(self.models, windscreen)
+        if glass is not None:
+            self.models["windscreen"] = glass
 
     @property
     def spec(self) -> str:
@@ -199,7 +220,13 @@ def check_noise_params(params: Any, names: tuple[str, ...] | None = None) -> dic
     return out
 
 
-def make_weather(spec: str, *, severity: float = 0.5, params: NoiseParams | None = None) -> Weather:
+def make_weather(
+    spec: str,
+    *,
+    severity: float = 0.5,
+    params: NoiseParams | None = None,
+    windscreen: bool | WindscreenParams = True,
+) -> Weather:
     """Build the weather for a spec string.
 
     Parameters
@@ -214,6 +241,10 @@ def make_weather(spec: str, *, severity: float = 0.5, params: NoiseParams | None
         Physical parameters that replace the severity mapping for some noises,
         e.g. ``{"rain": RainParams(rate_mm_h=50)}`` (checked by
         :func:`check_noise_params`).
+    windscreen : bool or WindscreenParams
+        With rain or snow, drops on the windscreen and the wiper
+        (:mod:`simroad.noise.windscreen`): True (default) with the default
+        :class:`WindscreenParams`, False for none, or the parameters.
 
     Returns
     -------
@@ -224,7 +255,7 @@ def make_weather(spec: str, *, severity: float = 0.5, params: NoiseParams | None
     >>> weather = make_weather("rain+glare", severity=0.7)
     >>> weather.reset(np.random.default_rng(0))
     """
-    return Weather(parse_noise(spec), severity=severity, params=params)
+    return Weather(parse_noise(spec), severity=severity, params=params, windscreen=windscreen)
 
 
 def apply_noise(
@@ -237,6 +268,7 @@ def apply_noise(
     depth: np.ndarray | None = None,
     material: np.ndarray | None = None,
     params: NoiseParams | None = None,
+    windscreen: bool | WindscreenParams = True,
 ) -> NoiseResult:
     """Spoil a single image (a rendered frame or a photograph).
 
@@ -262,12 +294,47 @@ def apply_noise(
         Material codes of :mod:`simroad.camera.world`.
     params : NoiseParams, optional
         As in :func:`make_weather`.
+    windscreen : bool or WindscreenParams
+        As in :func:`make_weather` (the glass as the rain left it since the last wipe).
 
     Returns
     -------
     noisy : ndarray, same shape and dtype as ``image``
     masks : dict str -> ndarray bool (H, W)
     """
-    weather = make_weather(spec, severity=severity, params=params)
+    weather = make_weather(spec, severity=severity, params=params, windscreen=windscreen)
     weather.reset(rng)
     return weather.apply(image, NoiseContext(camera=camera, depth=depth, material=material))
+
+
+def windscreen_model(models: Mapping[str, NoiseModel], windscreen: Any) -> WindscreenModel | None:
+    """The windscreen model for a weather's ``models``, or None.
+
+    Parameters
+    ----------
+    models : dict str -> NoiseModel
+        The weather's models (their rain rate and snow flake density wet the glass).
+    windscreen : bool or WindscreenParams
+        True: the default :class:`WindscreenParams`; False: no windscreen.
+
+    Returns
+    -------
+    WindscreenModel or None
+        None without rain and snow, or with ``windscreen=False``.
+    """
+    if not isinstance(windscreen, WindscreenParams):
+        if not isinstance(windscreen, (bool, np.bool_)):
+            raise SimroadError(
+                f"windscreen: expected True, False or a WindscreenParams, got {type(windscreen).__name__} {windscreen!r}."
+            )
+        if not windscreen:
+            return None
+        windscreen = WindscreenParams()
+    rain, snow = models.get("rain"), models.get("snow")
+    if rain is None and snow is None:
+        return None
+    return WindscreenModel(
+        windscreen,
+        rain_rate_mm_h=rain.params.rate_mm_h if isinstance(rain, RainModel) else 0.0,
+        flake_density_m3=snow.params.flake_density_m3 if isinstance(snow, SnowModel) else 0.0,
+    )

@@ -186,6 +186,10 @@ class FrameState:
     unmasked : ndarray, bool, (H, W) or None
         Pixels whose change in the current stage is the sky clearing, not noise: the
         runner leaves them out of that stage's noise mask.
+    covered : ndarray, bool, (H, W) or None
+        Pixels the current stage's model covers (drops and the wiper on the
+        windscreen), which belong in its noise mask whether or not they changed by the
+        threshold: the runner adds them to that stage's mask.
     """
 
     lin: np.ndarray
@@ -199,6 +203,7 @@ class FrameState:
     water_film: float = 0.0
     sky_clear: float = 0.0
     unmasked: np.ndarray | None = None
+    covered: np.ndarray | None = None
     _cache: dict = field(default_factory=dict)
 
     @property

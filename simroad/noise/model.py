@@ -1,10 +1,11 @@
 """The weather-model interface and the runner that applies models stage by stage.
 
-A frame passes through six stages in physical order, and every model acts in the
+A frame passes through seven stages in physical order, and every model acts in the
 stages it belongs to (see :data:`STAGES`): what the surface is made of (wet road,
 settled snow), how it is lit (cast shadows), what it reflects (wet-road sky mirror,
 the sun's specular lobe), the atmosphere between surface and camera (haze, fog), the
-particles nearest the camera (drops, flakes), and the optics (veiling glare, bloom).
+particles nearest the camera (drops, flakes), the windscreen (drops on the glass, the
+wiper), and the optics (veiling glare, bloom).
 
 Every public way to apply weather returns a :data:`NoiseResult`, ``(noisy, masks)``:
 the spoiled frame (same shape and dtype as the input) and a dict noise name -> bool
@@ -36,7 +37,7 @@ from simroad.noise.radiometry import as_uint8, change_mask, linear_to_srgb, srgb
 
 __all__ = ["STAGES", "Limit", "NoiseModel", "NoiseResult", "Params", "run_models"]
 
-STAGES = ("material", "illumination", "reflection", "atmosphere", "particles", "optics")
+STAGES = ("material", "illumination", "reflection", "atmosphere", "particles", "windscreen", "optics")
 #: The stages that act on the ground's surface only.
 _SURFACE_STAGES = ("material", "reflection")
 
@@ -217,6 +218,11 @@ class NoiseModel:
             raise SimroadError(f"{self.name}: call reset(rng) before apply(...).")
         return self._rng
 
+    @property
+    def is_identity(self) -> bool:
+        """True when this model leaves every frame unchanged (its params say so)."""
+        return bool(self.params.is_identity)
+
     def prepare(self, state: FrameState) -> None:
         """Hook run before the first stage of every frame."""
 
@@ -250,7 +256,7 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
         raise SimroadError(f"ctx: expected a NoiseContext, got {type(ctx).__name__}.")
     h, w = image.shape[:2]
     masks = {m.name: np.zeros((h, w), dtype=bool) for m in models}
-    active = [m for m in models if not m.params.is_identity]
+    active = [m for m in models if not m.is_identity]
     for m in active:
         m._require_reset()
     cam, depth, material, ground = resolve_frame(image, ctx)
@@ -274,6 +280,9 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
         if state.unmasked is not None:  # the sky clearing for the sun is not noise
             changed &= ~state.unmasked
             state.unmasked = None
+        if state.covered is not None:  # what covers the lens is noise even where it matches the scene
+            changed |= state.covered
+            state.covered = None
         masks[m.name] |= changed
         enc_prev = enc
     if image.dtype == np.uint8:

@@ -27,9 +27,9 @@ from simroad.camera.sensor import SensorParams
 from simroad.control import ControllerConfig
 from simroad.envs import RoadCamConfig
 from simroad.experiments import AblationGrid, EpisodeSpec
-from simroad.noise import MODELS
+from simroad.noise import MODELS, WindscreenParams
 
-PARAMS = [m.params_type for m in MODELS.values()]
+PARAMS = [*(m.params_type for m in MODELS.values()), WindscreenParams]
 CONFIGS = [RoadCamConfig, CameraConfig, SensorParams, EpisodeSpec, AblationGrid, ControllerConfig, *PARAMS]
 
 
@@ -49,12 +49,15 @@ _BY_TYPE: dict[str, list[tuple[str, object]]] = {
     "float | None": [("wrong type", "x"), ("above range", 1e12)],
     "int | None": [("wrong type", "x"), ("above range", 10**12)],
     "bool | SensorParams": [("string boolean", "on"), ("integer 2", 2)],
+    "bool | WindscreenParams": [("string boolean", "on"), ("integer 2", 2)],
+    "float | str | None": [("wrong type", [1.0]), ("unknown name", "bogus"), ("above range", 1e12)],
     "bool": [("string boolean", "no"), ("integer 2", 2)],
     "str": [("wrong type", 5), ("unknown name", "bogus")],
     "str | None": [("wrong type", 5), ("unknown name", "bogus")],
     "tuple[str, ...]": [("wrong type", 5), ("unknown name", ("bogus",))],
     "tuple[float, ...]": [("not numbers", ("x", "y")), ("out of range", (1e12, 1e12))],
     "tuple[float, float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12, 1e12))],
+    "tuple[float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12))],
     "CameraConfig": [("wrong type", 5), ("a dict", {"width": 320})],
     "dict": [("wrong type", 5), ("unknown key", {"bogus": 1})],
     "dict | None": [("wrong type", 5), ("unknown key", {"bogus": 1})],
@@ -180,6 +183,11 @@ FUNCTION_CASES: list[tuple[str, str, object, str]] = [
     ("srgb_to_linear", "wrong type", lambda e, p: noise.srgb_to_linear([1, 2]), "image"),
     ("srgb_to_linear", "wrong dtype", lambda e, p: noise.srgb_to_linear(IMG.astype(np.int64)), "image"),
     ("make_weather", "unknown", lambda e, p: noise.make_weather("hail"), "noise"),
+    ("make_weather", "windscreen type", lambda e, p: noise.make_weather("rain", windscreen="yes"), "windscreen"),
+    ("WindscreenModel", "params type", lambda e, p: noise.WindscreenModel(5), "params"),
+    ("WindscreenModel", "rain rate range", lambda e, p: noise.WindscreenModel(noise.WindscreenParams(), rain_rate_mm_h=-1), "rain_rate_mm_h"),
+    ("WindscreenModel", "flake density type", lambda e, p: noise.WindscreenModel(noise.WindscreenParams(), flake_density_m3="x"), "flake_density_m3"),
+    ("windscreen_model", "windscreen type", lambda e, p: noise.windscreen_model({}, "yes"), "windscreen"),
     ("make_weather", "severity range", lambda e, p: noise.make_weather("rain", severity=2), "severity"),
     ("make_weather", "severity type", lambda e, p: noise.make_weather("rain", severity="x"), "severity"),
     (
@@ -352,6 +360,8 @@ EXEMPT = {
     "RainParams": "dataclass: walked above",
     "ShadowParams": "dataclass: walked above",
     "SnowParams": "dataclass: walked above",
+    "WindscreenParams": "dataclass: walked above",
+    "WIPER_MODES": "constant",
     "DRIVER_NAMES": "constant",
     "PathEstimate": "a result record returned by LaneEstimator",
     "PENALTIES": "constant",

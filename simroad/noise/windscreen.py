@@ -1,0 +1,533 @@
+"""Drops on the windscreen and the wiper: adherent raindrops (and melted flakes) as blurred lenses.
+
+The glass is in front of the lens, so the windscreen acts on the scene's radiance
+after the falling drops (stage ``particles``) and before the lens's veiling glare and
+the sensor (stage ``optics``; the camera's sensor runs after all weather): it is the
+``windscreen`` stage of :data:`simroad.noise.model.STAGES`.
+
+Physics
+-------
+* **Collection** — drops in the air hit the glass at the rate
+  ``Σ n_i·(v·cos φ + w_i·sin φ)`` per m² of glass (n_i drops per m³ falling at w_i, the
+  car at v, the glass tilted back by φ from vertical): a headwind collects drops. Rain
+  drops follow Marshall–Palmer at the rain's rate (0.5–7 mm, Gunn–Kinzer speeds);
+  snowflakes (the snow's 1–5 mm flakes at 0.5–2 m/s) melt on the glass into drops of
+  the same mass (flake density ``snow_density_kg_m3``). Each arrival leaves a sessile
+  spherical cap of the same volume, contact angle ``contact_angle_deg``
+  (:func:`~simroad.noise._glass.contact_radius`; a 1 mm raindrop gives a 0.8 mm contact
+  radius at 60°), at a uniformly random point of the glass in view. Arrivals stop when
+  the drops cover ``max_coverage`` of the glass (real drops would merge) or number
+  ``max_drops``.
+* **Appearance** — each drop is a water lens (Roser & Geiger 2009; Halimeh & Roser
+  2009): it shows a small, inverted, wide-angle view of the scene around its line of
+  sight, with Fresnel losses growing towards its rim and a dark rim beyond the angle of
+  total internal reflection (:mod:`simroad.noise._glass`). The camera is focused far
+  away (``focus_m``), so the glass, a few centimetres in front of it, is blurred by the
+  thin-lens defocus disc ``c = A·f·|S − z|/(z·(S − f))`` (A = f/N the aperture). The
+  ratio of that blur to the drop's own image, ``A/(2a)``, does not depend on the glass
+  distance or the resolution: for f/2 at 4 mm (A = 2 mm) a 1.6 mm wide drop is blurred
+  over more than its width. A blurred drop partly covers the aperture, so the camera
+  sees ``(1 − α)·scene + Σ(drop light)`` with α the drop's coverage blurred by the disc
+  — the scene behind is not blurred.
+* **Running drops** — along the glass, the airflow pushes a drop up with a force that
+  grows as ``v²·a²`` and gravity pulls it down with ``a³``; contact-angle hysteresis
+  holds it with a force ``∝ a``. In units of gravity's pull: net ``(v/v_c)²·(a_s/a) − 1``,
+  holding ``(a_s/a)²``, where ``a_s = slide_radius_mm`` is the drop that just runs down a
+  still car's glass and ``v_c = airflow_speed_m_s`` the speed at which the airflow's
+  push on it equals gravity's. A drop whose net force exceeds the holding one runs at
+  ``slide_speed_m_s`` times the excess (capped at 2): big drops run down at a standstill,
+  and at motorway speeds drops creep up the glass. A running drop keeps the sprite of
+  where it formed (its image size changes little over a frame).
+* **Wiper** — a blade turning about a pivot below the view (:mod:`simroad.noise._wiper`)
+  sweeps an arc up and back in two strokes of ``wiper_stroke_s``; every drop whose
+  centre the blade passes is gone. ``wiper_period_s``: seconds between cycle starts
+  (at least two strokes), a mode (``"fast"`` 1 s = 60 cycles/min, ``"slow"`` 1.5 s = 40
+  cycles/min — FMVSS 104 asks for at least 45 cycles/min at the high speed and a lower
+  speed at least 15 cycles/min slower —, ``"intermittent"`` 5 s), ``"off"``/None, or
+  ``"auto"``: a rain sensor that starts a cycle when drops cover
+  ``sensor_coverage`` of the glass. The blade itself is seen, defocused, as a dark band
+  while it crosses the view.
+
+The first frame of an episode shows the glass as the rain left it since the last
+wipe (a random phase of the wiper cycle; 60 s of rain with the wiper off).
+
+References: Roser & Geiger, *Video-based raindrop detection for improved image
+registration*, ICCV workshops 2009; Halimeh & Roser, *Raindrop detection on car
+windshields using geometric-photometric environment construction and
+intensity-based correlation*, IEEE IV 2009; Marshall & Palmer 1948; Furmidge, J.
+Colloid Sci. 1962 (drop retention on inclined surfaces); FMVSS 104 (windshield wiping).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from simroad._validation import SimroadError, check_choice, check_in_range
+from simroad.noise._drops import DropField, SpriteBank, draw_drops
+from simroad.noise._drops_kernel import COVERED
+from simroad.noise._glass import Glass, GlassView, contact_radius, defocus_diameter_m, glass_view
+from simroad.noise._wiper import blade_angle, blade_coverage, swept_interval
+from simroad.noise.context import FrameState
+from simroad.noise.model import Limit, NoiseModel, Params
+from simroad.noise.rain import D_RANGE_MM as RAIN_D_MM
+from simroad.noise.rain import MP_N0, RainParams, marshall_palmer_slope, terminal_velocity
+from simroad.noise.snow import D_RANGE_MM as SNOW_D_MM
+from simroad.noise.snow import SIZE_SLOPE_PER_MM, flake_fall_speed
+
+__all__ = [
+    "WIPER_MODES",
+    "WindscreenModel",
+    "WindscreenParams",
+    "collection_rate",
+    "defocus_diameter_m",
+    "slide_velocity",
+]
+
+WIPER_MODES: Mapping[str, float | str | None] = {
+    "off": None,
+    "intermittent": 5.0,
+    "slow": 1.5,
+    "fast": 1.0,
+    "auto": "auto",
+}
+"""Named wiper settings: seconds between cycle starts, None (off) or the rain sensor."""
+
+#: Sprite banks by camera, glass and contact angle, shared by every episode.
+_BANKS: dict[tuple[Any, Glass, float], SpriteBank] = {}
+_OFF_FILL_S = 60.0  # wiper off: the first frame shows this much rain on the glass
+_WATER_KG_M3 = 1000.0
+
+
+@dataclass(frozen=True)
+class WindscreenParams(Params):
+    """Physical parameters of the windscreen, its drops and its wiper.
+
+    The drops' arrival rate comes from the rain and snow of the weather (see
+    :class:`WindscreenModel`); these are the glass, the lens, the water and the wiper.
+
+    Parameters
+    ----------
+    wiper_period_s : float, str or None
+        Seconds between wipe cycles (>= two strokes), a key of :data:`WIPER_MODES`
+        (``"off"``, ``"intermittent"``, ``"slow"``, ``"fast"``, ``"auto"``: a rain
+        sensor), or None (off).
+    wiper_stroke_s : float
+        Duration of one stroke (up or down), s.
+    wiper_arc_deg : float
+        Angle the blade sweeps, degrees.
+    wiper_pivot_m : tuple of float
+        The blade's pivot in glass coordinates (right, up along the glass), m.
+    wiper_length_m, wiper_width_m : float
+        The blade's reach from the pivot and its visible width, m.
+    sensor_coverage : float
+        ``"auto"`` wipes when the drops cover this fraction of the glass in view.
+    glass_distance_m : float
+        Distance from the lens to the glass along the optical axis, m.
+    glass_tilt_deg : float
+        Tilt of the glass back from vertical, degrees (a car's windscreen: 55-65).
+    focal_length_mm, f_number : float
+        The lens: focal length (mm) and f-number (aperture = focal length / f-number).
+    focus_m : float
+        Distance the camera is focused at, m.
+    contact_angle_deg : float
+        Contact angle of water on the glass, degrees (clean glass 20-30, weathered
+        40-70, water-repellent coating 90-110).
+    max_contact_radius_mm : float
+        Largest contact radius of a drop (bigger arrivals splash), mm.
+    slide_radius_mm : float
+        Contact radius of the smallest drop that runs down a still car's glass, mm.
+    airflow_speed_m_s : float
+        Car speed at which the airflow pushes that drop up as hard as gravity pulls
+        it down, m/s.
+    slide_speed_m_s : float
+        Speed of a running drop per unit excess force (in units of gravity's pull), m/s.
+    max_coverage : float
+        Fraction of the glass the drops may cover (then arrivals stop).
+    max_drops : int
+        Most drops on the glass at once (the cost per frame grows with them).
+    min_drop_px : float
+        Drops whose image is narrower than this half-width (px) are not drawn.
+    snow_density_kg_m3 : float
+        Density of a snowflake (its melted drop has the same mass), kg/m³.
+    rim_brightness : float
+        What a drop's totally reflecting rim shows, as a fraction of the drop's mean
+        view (an assumption: the reflected rays leave the drop along the glass).
+    blade_radiance : float
+        Linear radiance of the wiper blade (relative to white).
+
+    Each field's valid range is declared once, in ``LIMITS`` (listed under Notes);
+    ``wiper_period_s`` is checked against its ``wiper_stroke_s``.
+    """
+
+    LIMITS: ClassVar[Mapping[str, Limit]] = {
+        "wiper_stroke_s": Limit(0.1, 3.0, "s"),
+        "wiper_arc_deg": Limit(10.0, 180.0, "degrees"),
+        "wiper_pivot_m": Limit(-3.0, 3.0, "m", length=2),
+        "wiper_length_m": Limit(0.05, 3.0, "m"),
+        "wiper_width_m": Limit(0.001, 0.2, "m"),
+        "sensor_coverage": Limit(0.0, 1.0, low_inclusive=False),
+        "glass_distance_m": Limit(0.02, 1.5, "m"),
+        "glass_tilt_deg": Limit(0.0, 75.0, "degrees"),
+        "focal_length_mm": Limit(1.0, 50.0, "mm"),
+        "f_number": Limit(0.95, 32.0),
+        "focus_m": Limit(1.0, 1e6, "m"),
+        "contact_angle_deg": Limit(10.0, 150.0, "degrees"),
+        "max_contact_radius_mm": Limit(0.1, 10.0, "mm"),
+        "slide_radius_mm": Limit(0.1, 10.0, "mm"),
+        "airflow_speed_m_s": Limit(1.0, 100.0, "m/s"),
+        "slide_speed_m_s": Limit(0.0, 1.0, "m/s"),
+        "max_coverage": Limit(0.0, 1.0),
+        "max_drops": Limit(0, 20000, integer=True),
+        "min_drop_px": Limit(0.0, 10.0, "px"),
+        "snow_density_kg_m3": Limit(10.0, 1000.0, "kg/m^3"),
+        "rim_brightness": Limit(0.0, 1.0),
+        "blade_radiance": Limit(0.0, 1.0),
+    }
+
+    wiper_period_s: float | str | None = "auto"
+    wiper_stroke_s: float = 0.5
+    wiper_arc_deg: float = 110.0
+    wiper_pivot_m: tuple[float, float] = (-0.2, -0.55)
+    wiper_length_m: float = 0.75
+    wiper_width_m: float = 0.02
+    sensor_coverage: float = 0.05
+    glass_distance_m: float = 0.1
+    glass_tilt_deg: float = 55.0
+    focal_length_mm: float = 4.0
+    f_number: float = 2.0
+    focus_m: float = 10.0
+    contact_angle_deg: float = 50.0
+    max_contact_radius_mm: float = 2.5
+    slide_radius_mm: float = 2.0
+    airflow_speed_m_s: float = 15.0
+    slide_speed_m_s: float = 0.05
+    max_coverage: float = 0.35
+    max_drops: int = 2000
+    min_drop_px: float = 0.3
+    snow_density_kg_m3: float = 100.0
+    rim_brightness: float = 0.3
+    blade_radiance: float = 0.03
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        object.__setattr__(self, "wiper_period_s", _check_period(self.wiper_period_s, self.wiper_stroke_s))
+
+    @classmethod
+    def from_severity(cls, severity: float) -> WindscreenParams:
+        """The defaults: the severity acts through the rain's and snow's rates."""
+        check_in_range("severity", severity, 0.0, 1.0)
+        return cls()
+
+    @property
+    def is_identity(self) -> bool:
+        return False  # the weather's rain and snow decide (WindscreenModel.is_identity)
+
+    @property
+    def glass(self) -> Glass:
+        """The glass and lens as :class:`~simroad.noise._glass.Glass` (SI units)."""
+        f = self.focal_length_mm * 1e-3
+        return Glass(self.glass_distance_m, self.glass_tilt_deg, f, f / self.f_number, self.focus_m)
+
+
+def _check_period(value: Any, stroke_s: float) -> float | str | None:
+    """A wiper period: None, a mode name, or seconds in [2·stroke, 120]."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        mode = WIPER_MODES[check_choice("wiper_period_s", value, tuple(WIPER_MODES))]
+        return mode if not isinstance(mode, float) else _check_period(mode, stroke_s)
+    low = 2.0 * stroke_s
+    try:
+        return check_in_range("wiper_period_s", value, low, 120.0, unit="s")
+    except SimroadError as exc:
+        raise SimroadError(
+            f"{exc} A wipe cycle is two strokes of wiper_stroke_s={stroke_s:g} s, so the period is at least "
+            f"{low:g} s; or give a mode ({', '.join(map(repr, WIPER_MODES))}) or None for off."
+        ) from None
+
+
+def _sources(rain_rate_mm_h: float, flake_density_m3: float, snow_density: float) -> tuple[np.ndarray, ...]:
+    """Size bins of what hits the glass: (number density m⁻³, water-drop diameter m, fall speed m/s)."""
+    n, d, w = [], [], []
+    if rain_rate_mm_h > 0:
+        edges = np.linspace(*RAIN_D_MM, 53)
+        lam = marshall_palmer_slope(rain_rate_mm_h)
+        n.append(MP_N0 / lam * (np.exp(-lam * edges[:-1]) - np.exp(-lam * edges[1:])))
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        d.append(mid * 1e-3)
+        w.append(terminal_velocity(mid * 5e-4))
+    if flake_density_m3 > 0:
+        edges = np.linspace(*SNOW_D_MM, 33)
+        share = np.exp(-SIZE_SLOPE_PER_MM * edges[:-1]) - np.exp(-SIZE_SLOPE_PER_MM * edges[1:])
+        n.append(flake_density_m3 * share / share.sum())
+        mid = 0.5 * (edges[1:] + edges[:-1])
+        d.append(mid * 1e-3 * (snow_density / _WATER_KG_M3) ** (1.0 / 3.0))  # melted, same mass
+        w.append(flake_fall_speed(mid))
+    if not n:
+        return np.zeros(0), np.zeros(0), np.zeros(0)
+    return np.concatenate(n), np.concatenate(d), np.concatenate(w)
+
+
+def collection_rate(
+    rain_rate_mm_h: float,
+    speed_m_s: float,
+    *,
+    flake_density_m3: float = 0.0,
+    glass_tilt_deg: float = 55.0,
+    snow_density_kg_m3: float = 100.0,
+) -> float:
+    """Drops hitting one m² of windscreen per second: ``Σ n_i·(v·cos φ + w_i·sin φ)``.
+
+    Parameters
+    ----------
+    rain_rate_mm_h : float
+        Rain rate (Marshall–Palmer drops of 0.5–7 mm), mm/h.
+    speed_m_s : float
+        Car speed, m/s (its magnitude counts).
+    flake_density_m3 : float
+        Snowflakes of 1–5 mm per m³.
+    glass_tilt_deg : float
+        Tilt φ of the glass back from vertical, degrees.
+    snow_density_kg_m3 : float
+        Unused by the rate (it sets the melted drops' size); kept for symmetry.
+    """
+    rain = check_in_range("rain_rate_mm_h", rain_rate_mm_h, 0.0, 300.0, unit="mm/h")
+    snow = check_in_range("flake_density_m3", flake_density_m3, 0.0, 20000.0, unit="1/m^3")
+    v = abs(check_in_range("speed_m_s", speed_m_s, -100.0, 100.0, unit="m/s"))
+    phi = math.radians(check_in_range("glass_tilt_deg", glass_tilt_deg, 0.0, 90.0, unit="degrees"))
+    n, _, w = _sources(rain, snow, snow_density_kg_m3)
+    return float(np.sum(n * (v * math.cos(phi) + w * math.sin(phi))))
+
+
+def slide_velocity(radius_m: np.ndarray, speed_m_s: float, params: WindscreenParams) -> np.ndarray:
+    """Velocity of drops along the glass, m/s (+ up the glass), see the module docstring."""
+    q = params.slide_radius_mm * 1e-3 / np.maximum(np.asarray(radius_m, float), 1e-6)
+    net = (speed_m_s / params.airflow_speed_m_s) ** 2 * q - 1.0
+    excess = np.abs(net) - q * q
+    return np.where(excess > 0.0, np.sign(net) * params.slide_speed_m_s * np.minimum(excess, 2.0), 0.0)
+
+
+class WindscreenModel(NoiseModel):
+    """Drops on the windscreen and the wiper (see the module docstring).
+
+    :func:`simroad.noise.make_weather` adds it to rain and snow (``windscreen=True``,
+    the default), with the rain's rate and the snow's flake density.
+
+    Parameters
+    ----------
+    params : WindscreenParams
+    rain_rate_mm_h : float
+        Rain rate, mm/h, in [0, 300] (keyword-only).
+    flake_density_m3 : float
+        Snowflakes per m³, in [0, 20000].
+
+    Attributes
+    ----------
+    drops : DropField
+        The drops on the glass (glass positions, contact radii, image positions,
+        sprites).
+    blade_visible : bool
+        Whether the wiper blade crossed the view in the last frame.
+    """
+
+    name = "windscreen"
+    params_type = WindscreenParams
+    stages = ("windscreen",)
+
+    def __init__(self, params: WindscreenParams, *, rain_rate_mm_h: float = 0.0, flake_density_m3: float = 0.0) -> None:
+        super().__init__(params)
+        self.rain_rate_mm_h = check_in_range("rain_rate_mm_h", rain_rate_mm_h, 0.0, 300.0, unit="mm/h")
+        self.flake_density_m3 = check_in_range("flake_density_m3", flake_density_m3, 0.0, 20000.0, unit="1/m^3")
+        n, d, w = _sources(self.rain_rate_mm_h, self.flake_density_m3, params.snow_density_kg_m3)
+        a = np.minimum(contact_radius(d, params.contact_angle_deg), params.max_contact_radius_mm * 1e-3)
+        self._bins = (n, a, w)
+        self._on_reset()
+
+    @classmethod
+    def from_severity(cls, severity: float) -> WindscreenModel:
+        """Default glass and wiper, in the rain of ``severity`` (``RainParams.from_severity``)."""
+        s = check_in_range("severity", severity, 0.0, 1.0)
+        return cls(WindscreenParams.from_severity(s), rain_rate_mm_h=RainParams.from_severity(s).rate_mm_h)
+
+    @property
+    def is_identity(self) -> bool:
+        """Nothing falls on the glass: the frames are left unchanged."""
+        return self.rain_rate_mm_h == 0.0 and self.flake_density_m3 == 0.0
+
+    @property
+    def coverage(self) -> float:
+        """Fraction of the glass in view the drops cover (0 before the first frame)."""
+        return 0.0 if self._view is None else self.drops.coverage(self._view.view_area_m2)
+
+    def _on_reset(self) -> None:
+        self.drops = DropField()
+        self.blade_visible = False
+        self._clock: float | None = None  # s since the first frame
+        self._cycle_start = -math.inf  # start of the latest wipe cycle, s
+        self._view: GlassView | None = None
+        self._pivot_maps: tuple[np.ndarray, np.ndarray, float, float] | None = None
+        self._rate_cache: tuple[tuple[float, float], float, np.ndarray] | None = None
+
+    # ----------------------------------------------------------- the stage
+    def windscreen(self, state: FrameState) -> None:
+        p, ctx = self.params, state.ctx
+        rng = self._require_reset()
+        view = self._glass_view(state)
+        speed = abs(ctx.ego_speed)
+        if self._clock is None or view is not self._view:
+            self._start(view, speed, rng)
+            now = 0.0
+        else:
+            before = self._clock
+            now = self._clock = before + ctx.dt
+            self._arrive(view, speed, ctx.dt, rng)
+            if self._may_slide(speed):
+                v = slide_velocity(self.drops.radius, speed, p)
+                self.drops.move(view, v != 0.0, v * ctx.dt)
+            self._wipe(before, now)
+            if p.wiper_period_s == "auto" and now - self._cycle_start >= 2.0 * p.wiper_stroke_s:
+                if self.drops.coverage(view.view_area_m2) >= p.sensor_coverage:
+                    self._cycle_start = now  # the rain sensor starts a cycle
+        factor = max(1, round(state.shape[1] / 80))
+        state.covered = draw_drops(state.lin, self.drops, self._bank(view), rim=p.rim_brightness, factor=factor)
+        self._draw_blade(state.lin, view, now, state.covered)
+
+    def _bank(self, view: GlassView) -> SpriteBank:
+        key = (view.config, view.glass, self.params.contact_angle_deg)
+        bank = _BANKS.get(key)
+        if bank is None:
+            bank = _BANKS.setdefault(key, SpriteBank(view, self.params.contact_angle_deg))
+        return bank
+
+    def _may_slide(self, speed: float) -> bool:
+        """Whether any drop may run: below √2 times ``airflow_speed_m_s`` only drops
+        bigger than ``slide_radius_mm`` can (see :func:`slide_velocity`)."""
+        p = self.params
+        if len(self.drops) == 0:
+            return False
+        return (
+            speed >= math.sqrt(2.0) * p.airflow_speed_m_s or float(self.drops.radius.max()) > p.slide_radius_mm * 1e-3
+        )
+
+    def _glass_view(self, state: FrameState) -> GlassView:
+        p = self.params
+        pitch = state.camera.config.pitch_deg
+        if p.glass_tilt_deg + pitch >= 89.0:
+            raise SimroadError(
+                f"glass_tilt_deg: {p.glass_tilt_deg:g} degrees with the camera's pitch of {pitch:g} degrees puts the "
+                "glass along the optical axis; expected a tilt below 89 degrees minus the pitch."
+            )
+        return glass_view(state.camera, p.glass)
+
+    # ------------------------------------------------------------ arrivals
+    def _rate(self, view: GlassView, speed: float) -> tuple[float, np.ndarray]:
+        """Arrivals per second on the glass in view, and the cumulative share of the
+        size bins (cached for the last speed)."""
+        key = (speed, view.view_area_m2)
+        if self._rate_cache is None or self._rate_cache[0] != key:
+            n, _, w = self._bins
+            tilt = math.radians(self.params.glass_tilt_deg)
+            per_bin = n * (speed * math.cos(tilt) + w * math.sin(tilt))
+            total = float(per_bin.sum())
+            cum = np.cumsum(per_bin / total) if total > 0 else np.zeros_like(per_bin)
+            self._rate_cache = (key, total * view.view_area_m2, cum)
+        return self._rate_cache[1], self._rate_cache[2]
+
+    def _arrive(self, view: GlassView, speed: float, duration_s: float, rng: np.random.Generator) -> None:
+        """The drops that hit the glass in view during ``duration_s`` form at uniform
+        points of it (the centres of the pixels that see them), while there is room."""
+        rate, cum_share = self._rate(view, speed)
+        count = int(rng.poisson(rate * duration_s)) if rate > 0.0 else 0
+        if count <= 0:
+            return
+        p = self.params
+        size = np.minimum(np.searchsorted(cum_share, rng.random(count) * cum_share[-1]), len(cum_share) - 1)
+        radius = self._bins[1][size]
+        pixel = np.searchsorted(view.area_cdf, rng.random(count) * view.area_cdf[-1], side="right")
+        pixel = np.minimum(pixel, view.area_cdf.size - 1)  # uniform on the glass: by each pixel's glass area
+        room = p.max_coverage - self.drops.coverage(view.view_area_m2)
+        fits = np.cumsum(np.pi * radius**2) / view.view_area_m2 <= room
+        fits[max(0, p.max_drops - len(self.drops)) :] = False
+        self.drops.add(view, self._bank(view), pixel[fits], radius[fits], min_px=p.min_drop_px)
+
+    def _start(self, view: GlassView, speed: float, rng: np.random.Generator) -> None:
+        """The first frame: the glass as the rain left it since the last wipe."""
+        p = self.params
+        self.drops, self._view, self._clock = DropField(), view, 0.0
+        self._pivot_maps = None
+        rate, cum_share = self._rate(view, speed)
+        if p.wiper_period_s is None:
+            since = _OFF_FILL_S
+        elif p.wiper_period_s == "auto":  # somewhere between two triggers of the sensor
+            share = np.diff(cum_share, prepend=0.0)
+            per_s = rate * float(np.sum(share * np.pi * self._bins[1] ** 2)) / view.view_area_m2
+            since = float(rng.random()) * (p.sensor_coverage / per_s if per_s > 0 else 0.0)
+            self._cycle_start = -math.inf
+        else:
+            since = float(rng.random()) * float(p.wiper_period_s)
+            self._cycle_start = -since
+        self._arrive(view, speed, since, rng)
+        self._wipe(-since, 0.0)
+
+    # --------------------------------------------------------------- wiper
+    def _cycles(self, t0: float, t1: float) -> list[float]:
+        """Start times of the wipe cycles that run during ``(t0, t1]``."""
+        period, stroke = self.params.wiper_period_s, self.params.wiper_stroke_s
+        if period is None:
+            return []
+        if period == "auto":
+            return [self._cycle_start] if self._cycle_start > t0 - 2.0 * stroke else []
+        first = self._cycle_start + math.floor((t0 - 2.0 * stroke - self._cycle_start) / period) * period
+        return [s for s in np.arange(first, t1, period) if s + 2.0 * stroke > t0]
+
+    def _wipe(self, t0: float, t1: float) -> None:
+        """Remove the drops the blade passed over during ``(t0, t1]``."""
+        p = self.params
+        if len(self.drops) == 0:
+            return
+        arc = math.radians(p.wiper_arc_deg)
+        px, py = p.wiper_pivot_m
+        angle = np.arctan2(self.drops.gy - py, self.drops.gx - px)
+        reach = np.hypot(self.drops.gy - py, self.drops.gx - px) <= p.wiper_length_m
+        gone = np.zeros(len(self.drops), bool)
+        for start in self._cycles(t0, t1):
+            swept = swept_interval(t0 - start, t1 - start, p.wiper_stroke_s, arc)
+            if swept is not None:
+                gone |= reach & (angle >= swept[0]) & (angle <= swept[1])
+        self.drops.keep(~gone)
+
+    def _draw_blade(self, lin: np.ndarray, view: GlassView, now: float, covered: np.ndarray) -> None:
+        """The blade, defocused, where it crosses the view at ``now`` (marked in ``covered``
+        where it hides at least :data:`COVERED` of a pixel)."""
+        p = self.params
+        self.blade_visible = False
+        starts = [s for s in self._cycles(now - 1e-9, now) if s <= now]
+        if not starts:
+            return
+        alpha = blade_angle(now - starts[-1], p.wiper_stroke_s, math.radians(p.wiper_arc_deg))
+        edge = p.glass.aperture_m  # the defocus disc, measured on the glass
+        if self._pivot_maps is None:
+            rel_x, rel_y = view.gx - np.float32(p.wiper_pivot_m[0]), view.gy - np.float32(p.wiper_pivot_m[1])
+            ang = np.arctan2(rel_y, rel_x)
+            lo, hi = float(ang.min()), float(ang.max())
+            if hi - lo > math.pi:  # the view surrounds the pivot's left: no simple range
+                lo, hi = -math.inf, math.inf
+            margin = (0.5 * p.wiper_width_m + edge) / max(float(np.hypot(rel_x, rel_y).min()), 1e-3)
+            self._pivot_maps = (rel_x, rel_y, lo - margin, hi + margin)
+        rel_x, rel_y, lo, hi = self._pivot_maps
+        if not lo <= alpha <= hi:  # the blade is out of view
+            return
+        cov = blade_coverage(rel_x, rel_y, alpha, width_m=p.wiper_width_m, length_m=p.wiper_length_m, edge_m=edge)
+        rows = np.flatnonzero(cov.any(axis=1))
+        if len(rows) == 0:
+            return
+        r = slice(int(rows[0]), int(rows[-1]) + 1)
+        c = cov[r][..., None]
+        lin[r] = lin[r] * (1.0 - c) + c * np.float32(p.blade_radiance)
+        covered[r] |= cov[r] >= COVERED
+        self.blade_visible = True
