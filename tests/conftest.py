@@ -33,14 +33,82 @@ SLOW = (
 )
 
 
+#: The longest tests, longest first (CPU seconds on 2 busy cores, measured with
+#: ``pytest -n 2 --durations=60``). They run first: with ``-n`` the tests are handed out one
+#: at a time in this order to whichever worker is free (:class:`_LongestFirst`), so the
+#: short tests fill in around the long ones instead of a long one starting last and
+#: running alone at the end.
+LONGEST_FIRST = (
+    "tests/soak/test_soak.py::test_rss_flat_over_160_resets_after_warm_up",  # 180 s (200 resets)
+    "tests/detector/test_detector.py::test_pretrained_model_meets_clean_frame_targets_in_every_scenario",  # 65 s
+    "examples/test_gate.py::",  # 50 s (trains the worked example)
+    "tests/experiments/test_ablate_real.py::",  # 45 s and Ray workers
+    "tests/soak/test_soak.py::test_rss_flat_over_a_2000_step_detector_episode",  # 45 s
+    "tests/detector/test_detector.py::",  # 40 s with test_lut.py (one group)
+    "tests/experiments/test_filter_effect.py::",  # 35 s
+    "tests/experiments/test_ray_cluster.py::test_node_killed_mid_sweep",  # 30 s and two Ray nodes
+    "tests/experiments/test_closed_loop_acceptance.py::",  # 16 episodes of 7-17 s
+    "tests/experiments/test_example_detector.py::",  # 3 x 13 s
+    "tests/camera/test_scenery.py::",  # 35 s
+    "tests/experiments/test_robustness.py::",  # 20 s
+    "tests/envs/test_roadcam.py::test_check_env_passes",  # 4 x 9-13 s
+    "tests/envs/test_town.py::test_oracle_drives_the_town_route",  # 2 x 11 s
+    "tests/soak/test_soak.py::",  # 15 s
+    "tests/experiments/test_training.py::",  # 15 s
+    "tests/experiments/test_figures.py::",  # 15 s
+    "tests/camera/test_realism.py::",  # 4 x 6-9 s
+)
+
+#: Tests that share expensive in-process work, by node-id prefix (the first that matches;
+#: None: a test of its own). Each group runs on one worker, so the work is done once:
+#: a module fixture, tests/detector/conftest.py's session fixtures (rendered frames, a
+#: trained detector), load_detector's per-process cache of the trained worked example.
+SHARED = (
+    ("tests/detector/test_detector.py::test_pretrained_model_meets_clean_frame_targets_in_every_scenario", None),
+    ("tests/detector/test_detector.py::", "detector-frames"),
+    ("tests/detector/test_lut.py::", "detector-frames"),
+    ("examples/test_gate.py::", "example-detector"),
+    ("tests/experiments/test_ablate_real.py::", "ablate-real"),
+    ("tests/experiments/test_filter_effect.py::", "filter-effect"),
+    ("tests/experiments/test_robustness.py::", "robustness-photos"),
+    ("tests/camera/test_scenery.py::", "scenery-worlds"),
+)
+
+
+def _rank(nodeid: str) -> int:
+    return next((k for k, prefix in enumerate(LONGEST_FIRST) if nodeid.startswith(prefix)), len(LONGEST_FIRST))
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     root = config.rootpath
+    rank = {}
     for item in items:
         nodeid = item.nodeid
         if not nodeid.startswith(("tests/", "examples/")):  # run from another directory: relative to the root
             nodeid = os.path.relpath(str(item.path), root).replace(os.sep, "/") + "::" + item.name
         if nodeid.startswith(SLOW):
             item.add_marker(pytest.mark.slow)
+        rank[item] = _rank(nodeid)
+    items.sort(key=rank.__getitem__)  # stable: the rest keep their order
+
+
+def pytest_xdist_make_scheduler(config: pytest.Config, log):
+    """With ``-n`` (xdist's default ``--dist load``): :class:`_LongestFirst`. (pytest 9
+    ignores the node ids that xdist's own ``--dist loadgroup`` rewrites to group tests.)"""
+    if config.getvalue("dist") != "load":
+        return None  # another --dist asked for by name
+    from xdist.scheduler import LoadScopeScheduling
+
+    class _LongestFirst(LoadScopeScheduling):
+        """One test at a time, or one :data:`SHARED` group, in the collection's order to
+        whichever worker has at most two left (xdist's ``loadscope`` with our scopes)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            group = next((g for prefix, g in SHARED if nodeid.startswith(prefix)), None)
+            return group or nodeid
+
+    config.option.loadscopereorder = False  # keep the longest-first order
+    return _LongestFirst(config, log)
 
 
 @pytest.fixture

@@ -99,12 +99,17 @@ def test_cli_ablate_on_a_locked_directory_exits_2_naming_the_holder(tmp_path):
 
 # --- two sweeps at once --------------------------------------------------------------------------
 
+# A fork server, not fork: this pytest worker may hold threads (a Ray driver, OpenCV)
+# whose locks a forked child would inherit taken; the server is a clean process. There
+# is one fork server per process, and a preload counts only if it is set before the
+# server starts: the sweep pool starts it too once this worker has run Ray
+# (simroad.experiments.pool), so it is set here, at collection, before any test runs.
+# Without it every contender imports simroad itself (seconds each, 24 per test).
+multiprocessing.set_forkserver_preload(["stub_cell", "simroad.experiments.ablate"])
+
 
 def _race(out: Path, grids: tuple[AblationGrid, AblationGrid]) -> list[tuple[int, str, str]]:
-    # A fork server, not fork: this pytest worker may hold threads (a Ray driver, OpenCV)
-    # whose locks a forked child would inherit taken; the server is a clean process.
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["stub_cell", "simroad.experiments.ablate"])
     start = ctx.Barrier(2)
     procs = []
     for grid in grids:
