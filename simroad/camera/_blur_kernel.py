@@ -195,12 +195,16 @@ def _plan_depth(depth, face_id, flat_faces, inv_cos, travel, cx, foe_row, max_st
 
 @njit(cache=True, nogil=True)
 def face_share(face_id):
-    """The fraction of the pixels of the face map (int32) that show a face (id >= 0)."""
-    ids = face_id.reshape(-1)
-    n = 0
-    for i in range(ids.size):
-        n += ids[i] >= 0
-    return n / max(ids.size, 1)
+    """The fraction of the face map's (int32 (H, W)) pixels that show a face (id >= 0),
+    estimated on every 4th row and column (what it decides is only how to plan)."""
+    h, w = face_id.shape
+    n, total = 0, 0
+    for y in range(0, h, 4):
+        row = face_id[y]
+        for x in range(0, w, 4):
+            n += row[x] >= 0
+            total += 1
+    return n / max(total, 1)
 
 
 @njit(cache=True, nogil=True)

@@ -17,6 +17,7 @@ import functools
 
 import cv2
 import numpy as np
+from numba import njit
 
 from simroad.camera._blur_kernel import decode, decode_rounded
 
@@ -100,18 +101,39 @@ def segment_kernel(shift_texels: tuple[float, float], taps: int = 64) -> tuple[n
 
 @functools.lru_cache(maxsize=256)
 def _segment_kernel(sx: float, sy: float, taps: int) -> tuple[np.ndarray, tuple[int, int]]:
-    t = np.linspace(0.0, 1.0, taps)
-    px, py = t * sx, t * sy
-    x0, y0 = np.floor(px), np.floor(py)
-    ax, ay = px - x0, py - y0
-    ox, oy = int(x0.min()), int(y0.min())
-    kw, kh = int(x0.max()) - ox + 2, int(y0.max()) - oy + 2
-    ix, iy = (x0 - ox).astype(np.intp), (y0 - oy).astype(np.intp)
-    index = np.concatenate([iy * kw + ix, iy * kw + ix + 1, (iy + 1) * kw + ix, (iy + 1) * kw + ix + 1])
-    weight = np.concatenate([(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay])
-    kernel = (np.bincount(index, weight, minlength=kw * kh).reshape(kh, kw) / taps).astype(np.float32)
+    kernel, ox, oy = _segment_weights(_unit_steps(taps), sx, sy)
     kernel.flags.writeable = False
     return kernel, (-ox, -oy)
+
+
+@functools.cache
+def _unit_steps(taps: int) -> np.ndarray:
+    return np.linspace(0.0, 1.0, taps)
+
+
+@njit(cache=True, nogil=True)
+def _segment_weights(t, sx, sy):  # pragma: no cover - compiled
+    """The bilinear weights of the samples ``t * (sx, sy)`` summed on the texel grid,
+    divided by their number, as float32 (kh, kw), and the grid's origin (ox, oy): the
+    float64 operations of the numpy expressions (``np.bincount`` of the four corner
+    weights, corner after corner) in their order, so the same bits."""
+    n = t.size
+    x0, y0, ax, ay = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        px, py = t[i] * sx, t[i] * sy
+        x0[i], y0[i] = np.floor(px), np.floor(py)
+        ax[i], ay[i] = px - x0[i], py - y0[i]
+    ox, oy = int(x0.min()), int(y0.min())
+    kw, kh = int(x0.max()) - ox + 2, int(y0.max()) - oy + 2
+    acc = np.zeros(kh * kw)
+    for corner in range(4):
+        dx, dy = corner & 1, corner >> 1
+        for i in range(n):
+            k = (int(y0[i]) - oy + dy) * kw + int(x0[i]) - ox + dx
+            wx = ax[i] if dx else 1 - ax[i]
+            wy = ay[i] if dy else 1 - ay[i]
+            acc[k] += wx * wy
+    return (acc.reshape(kh, kw) / n).astype(np.float32), ox, oy
 
 
 #: OpenCV filters a 16-bit image through the DFT from this many kernel taps on (a

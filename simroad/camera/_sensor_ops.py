@@ -172,8 +172,9 @@ def near_edge_maps(face_id: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     edges = np.empty(face_id.shape, np.uint8)
     face_edges(face_id, edges)
-    a, b = (cv2.dilate(edges, _square(r)) for r in NEAR_RADII)
-    return a, b
+    ra, rb = NEAR_RADII
+    a = cv2.dilate(edges, _square(ra))
+    return a, cv2.dilate(a, _square(rb - ra))  # squares add up: radius ra, then rb - ra more
 
 
 @functools.lru_cache(maxsize=4)

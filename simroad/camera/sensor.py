@@ -201,7 +201,6 @@ class SensorParams:
 # ------------------------------------------------------------------ pure maths
 
 
-@functools.lru_cache(maxsize=64)
 def auto_exposure_update(ev: float, measured_mean: float, params: SensorParams) -> float:
     """Next frame's exposure (EV): move ``ae_rate`` of the log2 error towards the target.
 
@@ -213,7 +212,7 @@ def auto_exposure_update(ev: float, measured_mean: float, params: SensorParams) 
         return ev
     measured = max(float(measured_mean), 1e-6)
     step = params.ae_rate * math.log2(params.ae_target_mean / measured)
-    return float(np.clip(ev + step, params.ev_min, params.ev_max))
+    return float(min(max(ev + step, params.ev_min), params.ev_max))  # np.clip's value, without its overhead
 
 
 def apply_sensor(

@@ -81,6 +81,32 @@ def test_segment_kernel_by_hand():
         assert (k * (rows - ay)).sum() == pytest.approx(shift[1] / 2, abs=1e-3)
 
 
+def _segment_kernel_numpy(sx, sy, taps):
+    """The box kernel as numpy computed it before it was compiled (the reference)."""
+    t = np.linspace(0.0, 1.0, taps)
+    px, py = t * sx, t * sy
+    x0, y0 = np.floor(px), np.floor(py)
+    ax, ay = px - x0, py - y0
+    ox, oy = int(x0.min()), int(y0.min())
+    kw, kh = int(x0.max()) - ox + 2, int(y0.max()) - oy + 2
+    ix, iy = (x0 - ox).astype(np.intp), (y0 - oy).astype(np.intp)
+    index = np.concatenate([iy * kw + ix, iy * kw + ix + 1, (iy + 1) * kw + ix, (iy + 1) * kw + ix + 1])
+    weight = np.concatenate([(1 - ax) * (1 - ay), ax * (1 - ay), (1 - ax) * ay, ax * ay])
+    kernel = (np.bincount(index, weight, minlength=kw * kh).reshape(kh, kw) / taps).astype(np.float32)
+    return kernel, (-ox, -oy)
+
+
+def test_segment_kernel_is_the_numpy_kernel_to_the_bit():
+    rng = np.random.default_rng(0)
+    for k in range(400):
+        mag = float(rng.choice([0.01, 0.3, 1.0, 3.0, 30.0]))
+        sx, sy = (round(float(v), 3) for v in rng.uniform(-mag, mag, 2))
+        sy = 0.0 if k % 7 == 0 else sy
+        ref, ref_anchor = _segment_kernel_numpy(sx, sy, 64)
+        kernel, anchor = segment_kernel((sx, sy))
+        assert anchor == ref_anchor and kernel.dtype == ref.dtype and np.array_equal(kernel, ref), (sx, sy)
+
+
 def test_row_blur_is_row_blur_px_to_the_bit():
     # The renderer's per-camera RowBlur precomputes what does not depend on the travel.
     forward = np.array([np.nan, np.nan, 80.0, 30.0, 12.0, 6.0, 3.5, 2.1])
