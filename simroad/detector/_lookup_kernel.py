@@ -32,9 +32,16 @@ def _decide(rv: Any, gv: Any, bv: Any, offset: np.ndarray, flat: np.ndarray, bit
 
 
 @njit(cache=True, nogil=True)
-def _level(x: Any) -> Any:
-    """A float32 plane value as its 8-bit level, as ``planes_to_uint8`` rounds it."""
-    return np.int64(min(np.rint(max(x, np.float32(0.0)) * np.float32(255.0)), np.float32(255.0)))
+def _levels(row: np.ndarray, out: np.ndarray) -> None:
+    """Float32 plane values as 8-bit levels, as ``planes_to_uint8`` rounds them: ``rint`` of
+    ``0 <= v < 2**23`` is ``(v + 2**23) - 2**23`` in float32 (round half to even); with the
+    clip to [0, 255] as selects (NaN and negatives: 0) the loop vectorises."""
+    big = np.float32(8388608.0)
+    for j in range(row.size):
+        v = row[j] * np.float32(255.0)
+        v = v if v > np.float32(0.0) else np.float32(0.0)
+        v = v if v < np.float32(255.0) else np.float32(255.0)
+        out[j] = np.int32((v + big) - big)
 
 
 @njit(cache=True, nogil=True)
@@ -52,9 +59,13 @@ def _lookup_f32(
     r: np.ndarray, g: np.ndarray, b: np.ndarray, offset: np.ndarray, flat: np.ndarray, bits: int, out: np.ndarray
 ) -> None:
     h, w = out.shape
+    lr, lg, lb = np.empty(w, np.int32), np.empty(w, np.int32), np.empty(w, np.int32)
     for i in range(h):
+        _levels(r[i], lr)
+        _levels(g[i], lg)
+        _levels(b[i], lb)
         for j in range(w):
-            out[i, j] = _decide(_level(r[i, j]), _level(g[i, j]), _level(b[i, j]), offset, flat, bits)
+            out[i, j] = _decide(np.int64(lr[j]), np.int64(lg[j]), np.int64(lb[j]), offset, flat, bits)
 
 
 def lookup_planes(planes: list[np.ndarray], offset: np.ndarray, flat: np.ndarray, bits: int) -> np.ndarray:

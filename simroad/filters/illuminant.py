@@ -91,10 +91,11 @@ def _cast_gains(planes: Planes, rows: float, box: Any, target: tuple[float, floa
 
 
 def _colour_cast_planes(
-    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float
+    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float, inplace: bool = False
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_colour_cast` on float32 planes (options already checked, as for
-    every filter core); (new planes, mask of changed pixels)."""
+    every filter core); (new planes, mask of changed pixels). ``inplace``: the balanced
+    values are written into the given planes (the caller owns them)."""
     gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:
         return planes, np.zeros(planes[0].shape, bool)  # inside the box: the planes themselves
@@ -103,7 +104,7 @@ def _colour_cast_planes(
         lin = cv2.pow(p, gamma)
         lin *= np.float32(g)
         np.clip(lin, 0.0, 1.0, out=lin)
-        out.append(cv2.pow(lin, 1.0 / gamma))
+        out.append(cv2.pow(lin, 1.0 / gamma, dst=p) if inplace else cv2.pow(lin, 1.0 / gamma))
     return out, np.ones(planes[0].shape, bool)
 
 
@@ -144,5 +145,7 @@ def remove_colour_cast(
     box = _box(chromaticity)
     aim = _finite_pair("target", target)
     gamma = check_in_range("gamma", gamma, 1.0, 3.0)
-    out, mask = _colour_cast_planes(to_planes(image), rows=rows, chromaticity=box, target=aim, gamma=gamma)
+    out, mask = _colour_cast_planes(
+        to_planes(image), rows=rows, chromaticity=box, target=aim, gamma=gamma, inplace=True
+    )
     return FilterResult(from_planes(out, image.dtype), mask)
