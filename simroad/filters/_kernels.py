@@ -30,14 +30,17 @@ __all__ = [
     "MONOTONE_POWERS",
     "apply_row_tables",
     "area4_floor",
+    "centre_channels",
     "clipped_top",
     "count_below",
     "edge_pairs",
     "fill_rows",
+    "float32_over",
     "level_codes",
     "level_rows",
     "linear_halves",
     "lit_mean_boxes",
+    "lit_outside",
     "masked_medians",
     "median",
     "median_at_most",
@@ -46,6 +49,7 @@ __all__ = [
     "response_forward",
     "response_inverse",
     "row_runs",
+    "shadow_update",
     "sky_ratios",
     "table_rows",
     "uint8_planes",
@@ -110,7 +114,7 @@ def _quantize_row(row: np.ndarray, top: Any, idx: np.ndarray) -> None:
         x = row[j] * top
         x = x if x > np.float32(0.0) else np.float32(0.0)
         x = x if x < top else top
-        idx[j] = np.int32((x + big) - big)
+        idx[j] = np.uint32((x + big) - big)
 
 
 @njit(cache=True, nogil=True)
@@ -118,7 +122,7 @@ def quantize_take(p: np.ndarray, table: np.ndarray, out: np.ndarray) -> None:
     """``out = table[clip(rint(p * (n - 1)), 0, n - 1)]`` for a table of ``n`` levels."""
     top = np.float32(table.size - 1)
     h, w = p.shape
-    idx = np.empty(w, np.int32)
+    idx = np.empty(w, np.uint32)  # unsigned: the gather needs no wrap-around test
     for i in range(h):
         _quantize_row(p[i], top, idx)
         dst = out[i]
@@ -141,7 +145,7 @@ def linear_halves(p: np.ndarray, table: np.ndarray, out: np.ndarray) -> None:
     w = 2 * w2
     vec = w2 - w2 % 4
     quarter = np.float32(0.25)
-    i0, i1 = np.empty(w, np.int32), np.empty(w, np.int32)
+    i0, i1 = np.empty(w, np.uint32), np.empty(w, np.uint32)
     for i in range(h2):
         _quantize_row(p[2 * i], top, i0)
         _quantize_row(p[2 * i + 1], top, i1)
@@ -161,7 +165,7 @@ def sky_ratios(
     ``dark`` (float32 thresholds), in row-major order into ``out``; returns their number."""
     top = np.float32(table.size - 1)
     h, w = p0.shape
-    i0, i1, i2 = np.empty(w, np.int32), np.empty(w, np.int32), np.empty(w, np.int32)
+    i0, i1, i2 = np.empty(w, np.uint32), np.empty(w, np.uint32), np.empty(w, np.uint32)
     n = 0
     for i in range(h):
         _quantize_row(p0[i], top, i0)
@@ -500,7 +504,7 @@ def _box_mean(prod: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray) ->
     h, w, _ = prod.shape
     a = k // 2
     scale = 1.0 / (k * k)
-    xs = np.empty(w + k - 1, np.int64)
+    xs = np.empty(w + k - 1, np.uint64)  # unsigned: the gathers need no wrap-around test
     for x in range(w + k - 1):
         xs[x] = _reflect101(x - a, w)
     sums = np.empty((h, w, 4), np.float64)
@@ -559,6 +563,45 @@ def lit_mean_boxes(
             prod[y, x, 3] = logs[2, y, x] * weight
     for k in sizes:
         _box_mean(prod, k, thr, eps, mean)
+
+
+@njit(cache=True, nogil=True)
+def centre_channels(x: np.ndarray, out: np.ndarray) -> None:
+    """``out = x - x.mean(axis=0)`` for a (3, H, W) array: numpy's ``(x0 + x1) + x2`` divided by 3."""
+    a, b, c = x[0].reshape(-1), x[1].reshape(-1), x[2].reshape(-1)
+    oa, ob, oc = out[0].reshape(-1), out[1].reshape(-1), out[2].reshape(-1)
+    three = x.dtype.type(3.0)
+    for i in range(a.size):
+        m = ((a[i] + b[i]) + c[i]) / three
+        oa[i], ob[i], oc[i] = a[i] - m, b[i] - m, c[i] - m
+
+
+@njit(cache=True, nogil=True)
+def float32_over(x: np.ndarray, den: Any, out: np.ndarray) -> None:
+    """``out = x.astype(float32) / den`` (``den`` float32)."""
+    src, dst = x.reshape(-1), out.reshape(-1)
+    for i in range(src.size):
+        dst[i] = np.float32(src[i]) / den
+
+
+@njit(cache=True, nogil=True)
+def shadow_update(
+    alpha: np.ndarray, chroma: np.ndarray, valid: np.ndarray, min_alpha: Any, min_chroma: Any, shadow: np.ndarray
+) -> None:  # fmt: skip
+    """``shadow = uint8((alpha > min_alpha) & (chroma > min_chroma) & valid)`` (float32 thresholds)."""
+    h, w = valid.shape
+    for i in range(h):
+        for j in range(w):
+            shadow[i, j] = (alpha[i, j] > min_alpha) & (chroma[i, j] > min_chroma) & valid[i, j]
+
+
+@njit(cache=True, nogil=True)
+def lit_outside(lit_ok: np.ndarray, grown: np.ndarray, out: np.ndarray) -> None:
+    """``out = lit_ok * (1.0 - grown)`` in float64 (``lit_ok`` float32, ``grown`` uint8), as numpy promotes it."""
+    h, w = grown.shape
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = np.float64(lit_ok[i, j]) * (1.0 - np.float64(grown[i, j]))
 
 
 def percentile_below(x: np.ndarray, q: float, t: float) -> bool:

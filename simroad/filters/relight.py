@@ -67,13 +67,17 @@ from simroad.filters._common import (
     to_planes,
 )
 from simroad.filters._kernels import (
+    centre_channels,
     edge_pairs,
+    float32_over,
     linear_halves,
     lit_mean_boxes,
+    lit_outside,
     masked_medians,
     median,
     median_at_most,
     quantize_take,
+    shadow_update,
     sky_ratios,
 )
 
@@ -154,6 +158,14 @@ def _lit_mean(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     return mean
 
 
+def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)``: the coordinate of each
+    pixel of ``x`` (3, h, w) along ``d`` (3,) float32, (h, w) float32."""
+    out = np.empty(x.shape[1:], np.float32)
+    float32_over(np.tensordot(d, x, 1), np.float32(d @ d), out)
+    return out
+
+
 def _coverage(
     logs: np.ndarray, valid: np.ndarray, d: np.ndarray, window: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -166,14 +178,16 @@ def _coverage(
     bright = (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     top = cv2.dilate(bright, np.ones((3 * window, 3 * window), np.uint8))
     lit = lit_ok * (bright >= top - _FIRST_LIT)
+    shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
         diff = logs - _lit_mean(logs, lit, window)
-        alpha = cv2.blur(np.tensordot(d, diff, 1).astype(np.float32) / np.float32(d @ d), (3, 3))
-        dc = d - d.mean()
-        shift = np.tensordot(dc, diff - diff.mean(axis=0), 1).astype(np.float32) / np.float32(dc @ dc)
-        chroma = cv2.blur(shift, (5, 5))
-        shadow = ((alpha > _MIN_ALPHA) & (chroma > _MIN_CHROMA) & valid).astype(np.uint8)
-        lit = lit_ok * (1.0 - cv2.dilate(shadow, disc))
+        alpha = cv2.blur(_projection(d, diff), (3, 3))
+        centred = np.empty_like(diff)
+        centre_channels(diff, centred)  # diff - diff.mean(axis=0)
+        chroma = cv2.blur(_projection(d - d.mean(), centred), (5, 5))
+        shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
+        lit = np.empty(valid.shape, np.float64)
+        lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
         core = cv2.erode(shadow, core_disc).astype(bool)
         if core.sum() <= 20:
             break
