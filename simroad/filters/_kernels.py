@@ -39,7 +39,7 @@ __all__ = [
     "level_codes",
     "level_rows",
     "linear_halves",
-    "lit_mean_boxes",
+    "lit_diff",
     "lit_outside",
     "masked_medians",
     "median",
@@ -498,71 +498,82 @@ def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
-def _box_mean(prod: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray) -> None:
-    """One box of :func:`lit_mean_boxes`: row sums of each source row once (a reflected row
-    is the same row), then OpenCV's running column sums, a row of all four channels at a time."""
-    h, w, _ = prod.shape
+def _row_sums(lit: np.ndarray, weighted: np.ndarray, k: int) -> np.ndarray:
+    """OpenCV's row sums (float64) of the four-channel image ``[lit, weighted]`` for a box of
+    side ``k``, each source row once (a reflected row is the same row): (h, 4 w)."""
+    h, w = lit.shape
     a = k // 2
-    scale = 1.0 / (k * k)
     xs = np.empty(w + k - 1, np.uint64)  # unsigned: the gathers need no wrap-around test
     for x in range(w + k - 1):
         xs[x] = _reflect101(x - a, w)
     sums = np.empty((h, w, 4), np.float64)
     ext = np.empty((w + k - 1, 4), np.float64)
     for y in range(h):
-        src = prod[y]
         for x in range(w + k - 1):
             xx = xs[x]
-            ext[x, 0], ext[x, 1], ext[x, 2], ext[x, 3] = src[xx, 0], src[xx, 1], src[xx, 2], src[xx, 3]
+            ext[x, 0], ext[x, 1] = lit[y, xx], weighted[0, y, xx]
+            ext[x, 2], ext[x, 3] = weighted[1, y, xx], weighted[2, y, xx]
         _box_row(ext, k, sums[y])
-    flat = sums.reshape(h, 4 * w)
-    total = np.zeros(4 * w, np.float64)
-    vals = np.empty(4 * w, mean.dtype)
-    for t in range(h + k - 1):
-        row = flat[_reflect101(t - a, h)]
-        if t < k - 1:
-            for j in range(4 * w):
-                total[j] += row[j]
-            continue
-        old = flat[_reflect101(t - (k - 1) - a, h)]  # the row that leaves the window
-        for j in range(4 * w):
-            s0 = total[j] + row[j]
-            vals[j] = s0 * scale
-            total[j] = s0 - old[j]
-        oy = t - (k - 1)
-        for i in range(w):
-            weight = vals[4 * i]
-            if weight > thr:
-                den = max(weight, eps)
-                mean[0, oy, i] = vals[4 * i + 1] / den
-                mean[1, oy, i] = vals[4 * i + 2] / den
-                mean[2, oy, i] = vals[4 * i + 3] / den
+    return sums.reshape(h, 4 * w)
 
 
 @njit(cache=True, nogil=True)
-def lit_mean_boxes(
-    logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, mean: np.ndarray
+def _column_step(sums: np.ndarray, t: int, k: int, total: np.ndarray, vals: np.ndarray) -> bool:
+    """Step ``t`` of OpenCV's running column sums over the row sums (h, 4 w): the box of
+    output row ``t - (k - 1)`` into ``vals`` (sum times ``1 / k**2``, rounded to its dtype);
+    False while the first ``k - 1`` rows only fill the window."""
+    h = sums.shape[0]
+    a = k // 2
+    row = sums[_reflect101(t - a, h)]
+    if t < k - 1:
+        for j in range(row.size):
+            total[j] += row[j]
+        return False
+    old = sums[_reflect101(t - (k - 1) - a, h)]  # the row that leaves the window
+    scale = 1.0 / (k * k)
+    for j in range(row.size):
+        s0 = total[j] + row[j]
+        vals[j] = s0 * scale
+        total[j] = s0 - old[j]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def lit_diff(
+    logs: np.ndarray, lit: np.ndarray, weighted: np.ndarray, frame: np.ndarray, sizes: tuple[int, int],
+    thr: Any, eps: Any, diff: np.ndarray,
 ) -> None:  # fmt: skip
-    """For each box side ``k`` of ``sizes`` in turn, where the box mean of ``lit`` exceeds ``thr``:
-    ``mean[c] = box(logs[c] * lit) / max(box(lit), eps)``.
+    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first
+    box of ``sizes`` where its weight exceeds ``thr``, overridden by the second box's where
+    its does, else ``frame`` (3,). A box's mean is ``box(weighted[c]) / max(box(lit), eps)``.
 
     ``box`` is ``cv2.blur(x, (k, k))`` (``BORDER_REFLECT_101``) of the four-channel image
-    ``[lit, logs * lit]`` in ``lit``'s dtype, bit for bit: OpenCV's row sums (three or five
-    terms left to right, else running) and running column sums in float64, each sum times
-    ``1 / k**2`` rounded to the dtype (the tests hold it to ``cv2.blur``). The products, the
-    comparison and the division are in that dtype too.
+    ``[lit, weighted]`` (``weighted = logs * lit``, both in the reference's dtype), bit for
+    bit: OpenCV's row sums (three or five terms left to right, else running) and running
+    column sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold
+    it to ``cv2.blur``); the comparison, the division and the difference are in that dtype.
     """
     h, w = lit.shape
-    prod = np.empty((h, w, 4), np.float64)
-    for y in range(h):
-        for x in range(w):
-            weight = lit[y, x]
-            prod[y, x, 0] = weight
-            prod[y, x, 1] = logs[0, y, x] * weight
-            prod[y, x, 2] = logs[1, y, x] * weight
-            prod[y, x, 3] = logs[2, y, x] * weight
-    for k in sizes:
-        _box_mean(prod, k, thr, eps, mean)
+    mean = np.empty((3, h, w), diff.dtype)
+    for c in range(3):
+        mean[c] = frame[c]
+    vals = np.empty(4 * w, diff.dtype)
+    for n, k in enumerate(sizes):
+        sums = _row_sums(lit, weighted, k)
+        total = np.zeros(4 * w, np.float64)
+        for t in range(h + k - 1):
+            if not _column_step(sums, t, k, total, vals):
+                continue
+            y = t - (k - 1)
+            for i in range(w):
+                weight = vals[4 * i]
+                if weight > thr:
+                    den = max(weight, eps)
+                    for c in range(3):
+                        mean[c, y, i] = vals[4 * i + 1 + c] / den
+                if n == len(sizes) - 1:
+                    for c in range(3):
+                        diff[c, y, i] = logs[c, y, i] - mean[c, y, i]
 
 
 @njit(cache=True, nogil=True)

@@ -71,7 +71,7 @@ from simroad.filters._kernels import (
     edge_pairs,
     float32_over,
     linear_halves,
-    lit_mean_boxes,
+    lit_diff,
     lit_outside,
     masked_medians,
     median,
@@ -142,20 +142,21 @@ def _edge_pairs(logs: np.ndarray, valid: np.ndarray, min_drop: float) -> np.ndar
     return edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER))
 
 
-def _lit_mean(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
-    """Mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around each pixel: a
-    ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
+def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
+    """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
+    each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    Both boxes in one compiled pass (:func:`~simroad.filters._kernels.lit_mean_boxes`:
-    ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, then the ratio where the
-    weight exceeds 0.15); the smaller box overrides where it holds enough.
+    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._kernels.lit_diff`:
+    ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
+    exceeds 0.15); the smaller box overrides where it holds enough.
     """
-    frame = (logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0)
-    mean = np.empty((3, *lit.shape), frame.dtype)
-    mean[...] = frame
-    kind = mean.dtype.type
-    lit_mean_boxes(logs, lit.astype(mean.dtype, copy=False), (3 * window, window), kind(0.15), kind(1e-6), mean)
-    return mean
+    weighted = logs * lit
+    frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+    kind = frame.dtype.type
+    diff = np.empty(logs.shape, frame.dtype)
+    lit_diff(logs, lit.astype(frame.dtype, copy=False), weighted, frame, (3 * window, window), kind(0.15),
+             kind(1e-6), diff)  # fmt: skip
+    return diff
 
 
 def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -180,7 +181,7 @@ def _coverage(
     lit = lit_ok * (bright >= top - _FIRST_LIT)
     shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
-        diff = logs - _lit_mean(logs, lit, window)
+        diff = _lit_diff(logs, lit, window)
         alpha = cv2.blur(_projection(d, diff), (3, 3))
         centred = np.empty_like(diff)
         centre_channels(diff, centred)  # diff - diff.mean(axis=0)

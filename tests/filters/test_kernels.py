@@ -250,8 +250,8 @@ def test_clipped_core_is_the_numpy_one():
         np.testing.assert_array_equal(_clipped(planes, lobe), expect)
 
 
-def test_lit_mean_is_the_per_channel_computation():
-    from simroad.filters.relight import _lit_mean
+def test_lit_diff_is_the_per_channel_computation():
+    from simroad.filters.relight import _lit_diff
 
     rng = np.random.default_rng(13)
     logs = np.log(rng.uniform(2e-3, 1.0, (3, 54, 160))).astype(np.float32)
@@ -263,9 +263,9 @@ def test_lit_mean_is_the_per_channel_computation():
             ok = weight > 0.15
             for c in range(3):
                 np.copyto(expect[c], cv2.blur(logs[c] * lit, (size, size)) / np.maximum(weight, 1e-6), where=ok)
-        got = _lit_mean(logs, lit, 31)
-        assert got.dtype == expect.dtype
-        np.testing.assert_array_equal(got, expect)
+        got = _lit_diff(logs, lit, 31)
+        assert got.dtype == (logs - expect).dtype
+        np.testing.assert_array_equal(got, logs - expect)
 
 
 def test_camera_response_is_the_float32_formula():
@@ -318,20 +318,21 @@ def test_linear_halves_is_the_area_halving_of_the_linear_plane():
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("k", [3, 5, 9, 32, 93])
-def test_lit_mean_boxes_is_cv2_blur_of_the_weighted_logs(dtype, k):
-    from simroad.filters._kernels import lit_mean_boxes
+def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
+    from simroad.filters._kernels import lit_diff
 
     rng = np.random.default_rng(k)
     for h, w in ((54, 160), (5, 40), (30, 7)):
         logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
         logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
         lit = (rng.random((h, w)) < 0.6).astype(dtype)
-        expect = np.full((3, h, w), 7, dtype)
-        stack = np.dstack([lit, *(lg * lit for lg in logs)])
-        sums = cv2.blur(stack, (k, k))
+        weighted = logs * lit
+        frame = np.array([0.5, -0.25, 0.125], dtype)
+        mean = np.repeat(np.repeat(frame[:, None, None], h, 1), w, 2)
+        sums = cv2.blur(np.dstack([lit, *weighted]), (k, k))
         ok = sums[..., 0] > dtype(0.15)
         for c in range(3):
-            np.copyto(expect[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
-        got = np.full((3, h, w), 7, dtype)
-        lit_mean_boxes(logs, lit, (k,), dtype(0.15), dtype(1e-6), got)
-        np.testing.assert_array_equal(got, expect)
+            np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
+        got = np.empty((3, h, w), dtype)
+        lit_diff(logs, lit, weighted, frame, (k,), dtype(0.15), dtype(1e-6), got)
+        np.testing.assert_array_equal(got, logs - mean)
