@@ -136,7 +136,7 @@ def filtered_table_planes_masks(
     does), or the uint8 image's own planes when no filter runs.
     """
     if filters:
-        return _filter_planes_masks(to_planes(image), filters, variant)
+        return _filter_planes_masks(to_planes(image), filters, variant, owned=True)
     if image.dtype != np.uint8:
         return [np.ascontiguousarray(image[..., c], dtype=np.float32) for c in range(3)], {}
     return [image[..., c] for c in range(3)], {}

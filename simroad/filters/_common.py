@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_int_in_range
-from simroad.filters._kernels import response_forward, response_inverse
+from simroad.filters._kernels import LEVELS, response_forward, response_inverse, uint8_planes
 from simroad.noise.radiometry import GAMMA
 
 __all__ = [
@@ -82,9 +82,11 @@ def to_planes(image: np.ndarray) -> Planes:
 
     Always a new array: the caller's image is never aliased, so the filters are pure.
     """
-    planar = np.ascontiguousarray(image.transpose(2, 0, 1), dtype=np.float32)
-    if image.dtype == np.uint8:
-        planar *= np.float32(1.0 / 255.0)
+    if image.dtype == np.uint8:  # each level's float32(k) * float32(1 / 255), read from a table in one pass
+        planar = np.empty((3, *image.shape[:2]), np.float32)
+        uint8_planes(image, LEVELS, planar)
+    else:
+        planar = np.ascontiguousarray(image.transpose(2, 0, 1), dtype=np.float32)
     return [planar[0], planar[1], planar[2]]
 
 

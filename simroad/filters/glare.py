@@ -157,23 +157,23 @@ def _fill_rows(lin: np.ndarray, holes: np.ndarray) -> None:
 
 
 def _reexpose(
-    lin: np.ndarray, gain: np.float32, codes: np.ndarray, rows: np.ndarray, r0: int, shoulder: float
-) -> Planes:
-    """``linear_to_camera(x * gain)`` of each linear plane ``x`` of the (3, H, W) ``lin``.
+    lin: np.ndarray, gain: np.float32, codes: np.ndarray, rows: np.ndarray, r0: int, shoulder: float, out: list
+) -> Planes:  # fmt: skip
+    """``linear_to_camera(x * gain)`` of each linear plane ``x`` of the (3, H, W) ``lin``, into
+    the planes of ``out`` (new ones for the entries that are None).
 
     The rows above ``r0`` are the frame's own linear values (the lobe is below): in a
     row of 8-bit levels (``rows``, the levels in ``codes``) each output is one of 256 per
     channel, computed once and looked up.
     """
-    out = []
     table = linear_to_camera(_linear_levels(shoulder), shoulder, gain=gain).reshape(-1)
-    for x, code, ok in zip(lin, codes, rows):
-        o = np.empty_like(x)
+    out = list(out)
+    for c, (x, code, ok) in enumerate(zip(lin, codes, rows)):
+        o = out[c] = np.empty_like(x) if out[c] is None else out[c]
         o[r0:] = linear_to_camera(x[r0:], shoulder, gain=gain)
         table_rows(code[:r0], ok[:r0], table, o[:r0])
         for a, b in row_runs(ok[:r0]):
             o[a:b] = linear_to_camera(x[a:b], shoulder, gain=gain)
-        out.append(o)
     return out
 
 
@@ -209,8 +209,10 @@ def _glare_planes(
     metering_top: float,
     shoulder: float,
     scale: int = _SCALE,
+    inplace: bool = False,
 ) -> tuple[Planes, np.ndarray]:
-    """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask)."""
+    """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask).
+    ``inplace``: the re-exposed frame is written into the given planes (the caller owns them)."""
     h, w = planes[0].shape
     r0 = min(int(top * h), h - 1)
     sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
@@ -236,7 +238,7 @@ def _glare_planes(
     after = sum(float(x[m0:].mean()) for x in lin)
     # The camera metered the lobe: without it, it would have exposed by before/after more.
     gain = np.float32(min(before / max(after, 1e-6), _MAX_GAIN))
-    return _reexpose(lin, gain, codes, rows, r0, shoulder), mask
+    return _reexpose(lin, gain, codes, rows, r0, shoulder, planes if inplace else [None] * 3), mask
 
 
 def remove_glare(
@@ -317,5 +319,6 @@ def remove_glare(
         top=top,
         metering_top=metering_top,
         shoulder=shoulder,
+        inplace=True,
     )
     return FilterResult(from_planes(out, image.dtype), mask)

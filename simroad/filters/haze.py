@@ -151,9 +151,10 @@ def _transmission(
 
 
 def _haze_planes(
-    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float
+    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float, inplace: bool = False
 ) -> tuple[Planes, np.ndarray]:
-    """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows)."""
+    """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows).
+    ``inplace``: the corrected rows are written into the given planes (the caller owns them)."""
     mask = np.zeros(planes[0].shape, bool)
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
@@ -165,9 +166,10 @@ def _haze_planes(
     mask[:n] = True
     gain = 1.0 / t[:n, None]
     lift = 1.0 - gain  # J = I / t - A (1 - t) / t = I gain + A lift
-    out = [np.empty_like(p) for p in planes]
+    out = list(planes) if inplace else [np.empty_like(p) for p in planes]
     for o, p, a in zip(out, planes, airlight):
-        o[n:] = p[n:]
+        if not inplace:
+            o[n:] = p[n:]
         _dehaze_rows(p, o, n, gain, a * lift, float(gamma))
     return out, mask
 
@@ -208,5 +210,7 @@ def remove_haze(
     t_min = check_in_range("t_min", t_min, 0.0, 1.0, low_inclusive=False)
     tolerance = check_in_range("tolerance", tolerance, 0.0, 1.0)
     gamma = check_in_range("gamma", gamma, 1.0, 3.0)
-    out, mask = _haze_planes(to_planes(image), percentile=percentile, t_min=t_min, tolerance=tolerance, gamma=gamma)
+    out, mask = _haze_planes(
+        to_planes(image), percentile=percentile, t_min=t_min, tolerance=tolerance, gamma=gamma, inplace=True
+    )
     return FilterResult(from_planes(out, image.dtype), mask)

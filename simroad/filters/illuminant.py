@@ -34,6 +34,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
 from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
+from simroad.filters._kernels import LEVELS, level_rows, row_runs
 
 __all__ = ["CLEAR_CHROMATICITY", "CLEAR_MEAN_CHROMATICITY", "remove_colour_cast"]
 
@@ -91,20 +92,38 @@ def _cast_gains(planes: Planes, rows: float, box: Any, target: tuple[float, floa
 
 
 def _colour_cast_planes(
-    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float
+    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float, inplace: bool = False
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_colour_cast` on float32 planes (options already checked, as for
-    every filter core); (new planes, mask of changed pixels)."""
+    every filter core); (new planes, mask of changed pixels). ``inplace``: the balanced
+    values are written into the given planes (the caller owns them)."""
     gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:
         return planes, np.zeros(planes[0].shape, bool)  # inside the box: the planes themselves
     out = []
     for p, g in zip(planes, gains):
-        lin = cv2.pow(p, gamma)
-        lin *= np.float32(g)
-        np.clip(lin, 0.0, 1.0, out=lin)
-        out.append(cv2.pow(lin, 1.0 / gamma))
+        o = p if inplace else np.empty_like(p)
+        _balance(p, np.float32(g), gamma, o)
+        out.append(o)
     return out, np.ones(planes[0].shape, bool)
+
+
+def _balance(p: np.ndarray, gain: np.float32, gamma: float, out: np.ndarray) -> None:
+    """``out = clip(p**gamma * gain, 0, 1)**(1 / gamma)`` (``cv2.pow``, float32; ``out`` may be ``p``).
+
+    A row of 8-bit levels takes one of 256 values, computed once per call and looked up
+    (``cv2.pow`` depends on the value alone); other rows are computed as written.
+    """
+    powers = cv2.pow(LEVELS, gamma).reshape(-1) * gain
+    np.clip(powers, 0.0, 1.0, out=powers)
+    table = cv2.pow(powers, 1.0 / gamma).reshape(-1)
+    codes, rows = np.empty(p.shape, np.uint8), np.empty(p.shape[0], bool)
+    level_rows(p, table, out, codes, rows)
+    for a, b in row_runs(rows):
+        lin: np.ndarray = cv2.pow(p[a:b], gamma)
+        lin *= gain
+        np.clip(lin, 0.0, 1.0, out=lin)
+        cv2.pow(lin, 1.0 / gamma, dst=out[a:b])
 
 
 def remove_colour_cast(
@@ -144,5 +163,7 @@ def remove_colour_cast(
     box = _box(chromaticity)
     aim = _finite_pair("target", target)
     gamma = check_in_range("gamma", gamma, 1.0, 3.0)
-    out, mask = _colour_cast_planes(to_planes(image), rows=rows, chromaticity=box, target=aim, gamma=gamma)
+    out, mask = _colour_cast_planes(
+        to_planes(image), rows=rows, chromaticity=box, target=aim, gamma=gamma, inplace=True
+    )
     return FilterResult(from_planes(out, image.dtype), mask)

@@ -67,6 +67,10 @@ _CORES: dict[Callable[..., FilterResult], Callable[..., tuple[Planes, np.ndarray
 }
 
 
+#: Cores that can write their result into the planes they are given (``inplace=True``).
+_IN_PLACE = frozenset({_colour_cast_planes, _glare_planes, _haze_planes, _relight_planes})
+
+
 def _keyword_defaults(function: Callable[..., Any]) -> dict[str, Any]:
     return {
         name: p.default
@@ -244,19 +248,25 @@ def filter_planes_masks(
 
 
 def _filter_planes_masks(
-    planes: Planes, filters: tuple[str, ...], variant: str = "improved"
+    planes: Planes, filters: tuple[str, ...], variant: str = "improved", *, owned: bool = False
 ) -> tuple[Planes, dict[str, np.ndarray]]:
     """:func:`filter_planes_masks` that may hand back ``planes`` itself when no filter changed them.
 
     A filter core returns the very list it was given when it leaves the planes as they
     are (no weather to undo); then nothing is copied, and the filter's clip is skipped
-    (the planes already lie in [0, 1]).
+    (the planes already lie in [0, 1]). The cores of :data:`_IN_PLACE` write into planes
+    the pipeline owns -- its own intermediates, and ``planes`` too when ``owned`` (the
+    caller hands them over) -- instead of new ones.
     """
     out, masks = planes, {}
     for name in filters:
         before, acted = out, None
         for step in FILTER_REGISTRY[name].steps(variant):
-            out, mask = _CORES[step.function](out, **step.options)
+            core = _CORES[step.function]
+            if core in _IN_PLACE and (owned or out is not planes):
+                out, mask = core(out, **step.options, inplace=True)
+            else:
+                out, mask = core(out, **step.options)
             acted = mask if acted is None else acted | mask
         if out is not before:
             clip_planes(out)
@@ -288,7 +298,7 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, varian
     variant = check_choice("variant", variant, FILTER_VARIANTS)
     if not names:
         return image.copy()
-    return from_planes(_filter_planes_masks(to_planes(image), names, variant)[0], image.dtype)
+    return from_planes(_filter_planes_masks(to_planes(image), names, variant, owned=True)[0], image.dtype)
 
 
 def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:

@@ -66,7 +66,20 @@ from simroad.filters._common import (
     linear_to_camera,
     to_planes,
 )
-from simroad.filters._kernels import edge_pairs, masked_medians, median, median_at_most, quantize_take, sky_ratios
+from simroad.filters._kernels import (
+    centre_channels,
+    edge_pairs,
+    float32_over,
+    linear_halves,
+    lit_diff,
+    lit_outside,
+    masked_medians,
+    median,
+    median_at_most,
+    quantize_take,
+    shadow_update,
+    sky_ratios,
+)
 
 __all__ = ["relight_shadows"]
 
@@ -98,6 +111,17 @@ def _linearise(p: np.ndarray, table: np.ndarray) -> np.ndarray:
     return out
 
 
+def _linear_small(p: np.ndarray, table: np.ndarray, ws: int) -> np.ndarray:
+    """:func:`_linearise` of ``p``, then reduced to half size (``cv2.resize``, area): in one
+    compiled pass where the halving is exact (even sides), else as written."""
+    h, w = p.shape
+    if w == 2 * ws and h % 2 == 0:
+        out = np.empty((h // 2, ws), np.float32)
+        linear_halves(p, table, out)
+        return out
+    return cv2.resize(_linearise(p, table), (ws, h // 2), interpolation=cv2.INTER_AREA)
+
+
 def _sky_not_blue(planes: Planes, table: np.ndarray, sky_rows: float, min_sky_blue: float) -> bool:
     """Whether the median linear ``log B/R`` of the unclipped pixels of the top rows is at
     most ``min_sky_blue`` (or fewer than 30 pixels are unclipped).
@@ -115,33 +139,32 @@ def _sky_not_blue(planes: Planes, table: np.ndarray, sky_rows: float, min_sky_bl
 
 def _edge_pairs(logs: np.ndarray, valid: np.ndarray, min_drop: float) -> np.ndarray:
     """Log differences (dark - lit), (N, 3), of the shadow-like pairs ``_SHIFT`` apart (compiled)."""
-    out = np.empty((4 * valid.size, 3), logs.dtype)
-    n = edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER), out)
-    return out[:n]
+    return edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER))
 
 
-def _lit_mean(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
-    """Mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around each pixel: a
-    ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
+def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
+    """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
+    each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    The weight ``lit`` and the three ``logs * lit`` are box-filtered as one
-    four-channel image (one ``cv2.blur`` per box; channel by channel the same sums).
+    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._kernels.lit_diff`:
+    ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
+    exceeds 0.15); the smaller box overrides where it holds enough.
     """
-    frame = (logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0)
-    mean = np.empty((3, *lit.shape), frame.dtype)
-    mean[...] = frame
-    stack = np.empty((*lit.shape, 4), np.result_type(logs, lit))
-    stack[..., 0] = lit
-    for c in range(3):
-        np.multiply(logs[c], lit, out=stack[..., c + 1])
-    for size in (3 * window, window):  # the smaller box overrides where it holds enough
-        sums = cv2.blur(stack, (size, size))
-        weight = sums[..., 0]
-        ok = weight > 0.15
-        floor = np.maximum(weight, 1e-6)
-        for c in range(3):
-            np.copyto(mean[c], sums[..., c + 1] / floor, where=ok)
-    return mean
+    weighted = logs * lit
+    frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+    kind = frame.dtype.type
+    diff = np.empty(logs.shape, frame.dtype)
+    lit_diff(logs, lit.astype(frame.dtype, copy=False), weighted, frame, (3 * window, window), kind(0.15),
+             kind(1e-6), diff)  # fmt: skip
+    return diff
+
+
+def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)``: the coordinate of each
+    pixel of ``x`` (3, h, w) along ``d`` (3,) float32, (h, w) float32."""
+    out = np.empty(x.shape[1:], np.float32)
+    float32_over(np.tensordot(d, x, 1), np.float32(d @ d), out)
+    return out
 
 
 def _coverage(
@@ -156,14 +179,16 @@ def _coverage(
     bright = (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     top = cv2.dilate(bright, np.ones((3 * window, 3 * window), np.uint8))
     lit = lit_ok * (bright >= top - _FIRST_LIT)
+    shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
-        diff = logs - _lit_mean(logs, lit, window)
-        alpha = cv2.blur(np.tensordot(d, diff, 1).astype(np.float32) / np.float32(d @ d), (3, 3))
-        dc = d - d.mean()
-        shift = np.tensordot(dc, diff - diff.mean(axis=0), 1).astype(np.float32) / np.float32(dc @ dc)
-        chroma = cv2.blur(shift, (5, 5))
-        shadow = ((alpha > _MIN_ALPHA) & (chroma > _MIN_CHROMA) & valid).astype(np.uint8)
-        lit = lit_ok * (1.0 - cv2.dilate(shadow, disc))
+        diff = _lit_diff(logs, lit, window)
+        alpha = cv2.blur(_projection(d, diff), (3, 3))
+        centred = np.empty_like(diff)
+        centre_channels(diff, centred)  # diff - diff.mean(axis=0)
+        chroma = cv2.blur(_projection(d - d.mean(), centred), (5, 5))
+        shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
+        lit = np.empty(valid.shape, np.float64)
+        lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
         core = cv2.erode(shadow, core_disc).astype(bool)
         if core.sum() <= 20:
             break
@@ -177,9 +202,10 @@ def _coverage(
 
 def _relight_planes(
     planes: Planes, *, shoulder: float, rows: float, sky_rows: float, min_sky_blue: float,
-    min_drop: float, min_pairs: int, window: int,
+    min_drop: float, min_pairs: int, window: int, inplace: bool = False,
 ) -> tuple[Planes, np.ndarray]:  # fmt: skip
-    """Core of :func:`relight_shadows` on float32 planes; (new planes, relit mask)."""
+    """Core of :func:`relight_shadows` on float32 planes; (new planes, relit mask). ``inplace``:
+    the relit pixels are written into the given planes (the caller owns them)."""
     h, w = planes[0].shape
     unchanged = (planes, np.zeros((h, w), bool))  # no shadow to relight: the planes themselves
     table = _linear_table(shoulder)
@@ -187,8 +213,7 @@ def _relight_planes(
     hs, ws = (h - top) // 2, w // 2
     if hs < 2 * _SHIFT or ws < 2 * _SHIFT or _sky_not_blue(planes, table, sky_rows, min_sky_blue):
         return unchanged
-    lin = [_linearise(p[top : top + 2 * hs], table) for p in planes]
-    small = [cv2.resize(p, (ws, hs), interpolation=cv2.INTER_AREA) for p in lin]
+    small = [_linear_small(p[top : top + 2 * hs], table, ws) for p in planes]
     valid = (cv2.max(cv2.max(small[0], small[1]), small[2]) < _SAT) & (
         cv2.min(cv2.min(small[0], small[1]), small[2]) > _DARK
     )
@@ -206,9 +231,10 @@ def _relight_planes(
     if not sel.any():
         return unchanged
     a = full[sel]
-    out = [p.copy() for p in planes]
+    out = list(planes) if inplace else [p.copy() for p in planes]
     for c, k in enumerate(np.exp(d).astype(np.float32)):
-        out[c][top : top + 2 * hs][sel] = linear_to_camera(lin[c][sel] / (1.0 - a * (1.0 - k)), shoulder)
+        lin = _linearise(planes[c][top : top + 2 * hs][sel].reshape(1, -1), table).reshape(-1)
+        out[c][top : top + 2 * hs][sel] = linear_to_camera(lin / (1.0 - a * (1.0 - k)), shoulder)
     mask = np.zeros((h, w), bool)
     mask[top : top + 2 * hs] = sel
     return out, mask
@@ -269,5 +295,6 @@ def relight_shadows(
         min_drop=check_in_range("min_drop", min_drop, 0.0, 5.0, low_inclusive=False),
         min_pairs=check_int_in_range("min_pairs", min_pairs, 1, 1 << 30),
         window=check_int_in_range("window", window, 3, 255),
+        inplace=True,
     )
     return FilterResult(from_planes(out, image.dtype), mask)

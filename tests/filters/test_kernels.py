@@ -161,8 +161,7 @@ def test_edge_pairs_lists_the_numpy_pairs_in_order():
     rng = np.random.default_rng(8)
     logs = (rng.normal(-1.0, 0.6, (3, 30, 41))).astype(np.float32)
     valid = rng.random((30, 41)) < 0.9
-    out = np.empty((4 * valid.size, 3), np.float32)
-    n = edge_pairs(logs, valid, 4, np.float32(0.5), np.float32(0.25), out)
+    got = edge_pairs(logs, valid, 4, np.float32(0.5), np.float32(0.25))
     expect = []
     for dy, dx in ((0, 4), (4, 0)):
         h, w = valid.shape
@@ -174,7 +173,7 @@ def test_edge_pairs_lists_the_numpy_pairs_in_order():
             expect.append(diff[:, ok].T)
     expect = np.concatenate(expect)
     assert len(expect) > 20
-    np.testing.assert_array_equal(out[:n], expect)
+    np.testing.assert_array_equal(got, expect)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
@@ -251,8 +250,8 @@ def test_clipped_core_is_the_numpy_one():
         np.testing.assert_array_equal(_clipped(planes, lobe), expect)
 
 
-def test_lit_mean_is_the_per_channel_computation():
-    from simroad.filters.relight import _lit_mean
+def test_lit_diff_is_the_per_channel_computation():
+    from simroad.filters.relight import _lit_diff
 
     rng = np.random.default_rng(13)
     logs = np.log(rng.uniform(2e-3, 1.0, (3, 54, 160))).astype(np.float32)
@@ -264,9 +263,9 @@ def test_lit_mean_is_the_per_channel_computation():
             ok = weight > 0.15
             for c in range(3):
                 np.copyto(expect[c], cv2.blur(logs[c] * lit, (size, size)) / np.maximum(weight, 1e-6), where=ok)
-        got = _lit_mean(logs, lit, 31)
-        assert got.dtype == expect.dtype
-        np.testing.assert_array_equal(got, expect)
+        got = _lit_diff(logs, lit, 31)
+        assert got.dtype == (logs - expect).dtype
+        np.testing.assert_array_equal(got, logs - expect)
 
 
 def test_camera_response_is_the_float32_formula():
@@ -299,5 +298,41 @@ def test_glare_linear_planes_and_reexposure_of_level_and_other_rows():
     assert not rows[:, 3:11].any() and rows[:, 11:].all()
     gain = np.float32(1.6)
     lin[:, 20:] *= np.float32(0.8)  # the lobe rows change
-    got = _reexpose(lin, gain, codes, rows, 20, 1.0)
+    got = _reexpose(lin, gain, codes, rows, 20, 1.0, [None] * 3)
     np.testing.assert_array_equal(np.stack(got), np.stack([linear_to_camera(x * gain, 1.0) for x in lin]))
+
+
+def test_linear_halves_is_the_area_halving_of_the_linear_plane():
+    from simroad.filters._kernels import linear_halves
+
+    rng = np.random.default_rng(16)
+    table = rng.random(4096, dtype=np.float32)
+    for h, w in ((108, 320), (10, 14), (6, 18), (4, 322), (2, 2)):  # vector loop and scalar tail
+        p = rng.random((h, w), dtype=np.float32)
+        lin = np.empty_like(p)
+        quantize_take(p, table, lin)
+        out = np.empty((h // 2, w // 2), np.float32)
+        linear_halves(p, table, out)
+        np.testing.assert_array_equal(out, cv2.resize(lin, (w // 2, h // 2), interpolation=cv2.INTER_AREA))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("k", [3, 5, 9, 32, 93])
+def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
+    from simroad.filters._kernels import lit_diff
+
+    rng = np.random.default_rng(k)
+    for h, w in ((54, 160), (5, 40), (30, 7)):
+        logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
+        logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
+        lit = (rng.random((h, w)) < 0.6).astype(dtype)
+        weighted = logs * lit
+        frame = np.array([0.5, -0.25, 0.125], dtype)
+        mean = np.repeat(np.repeat(frame[:, None, None], h, 1), w, 2)
+        sums = cv2.blur(np.dstack([lit, *weighted]), (k, k))
+        ok = sums[..., 0] > dtype(0.15)
+        for c in range(3):
+            np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
+        got = np.empty((3, h, w), dtype)
+        lit_diff(logs, lit, weighted, frame, (k,), dtype(0.15), dtype(1e-6), got)
+        np.testing.assert_array_equal(got, logs - mean)
