@@ -204,7 +204,7 @@ class WindscreenParams(Params):
     contact_angle_deg: float = 50.0
     max_contact_radius_mm: float = 2.5
     slide_radius_mm: float = 2.0
-    airflow_speed_m_s: float = 15.0
+    airflow_speed_m_s: float = 25.0
     slide_speed_m_s: float = 0.05
     max_coverage: float = 0.35
     max_drops: int = 2000
