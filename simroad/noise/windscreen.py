@@ -72,7 +72,7 @@ size and blur (quantised in steps of 10 %) and kept in a bank shared by every ep
 a frame costs one compiled pass over the drops' pixels
 (:mod:`simroad.noise._drops_kernel`) that samples the scene reduced 4x (``scene_low_pass``);
 drops less than 5 px wide are drawn in one colour, their mean view. The mask
-``"windscreen"`` is where the drops (or the blade) cover at least a tenth of the lens's
+``"windscreen"`` is where a drop (or the blade) covers at least a tenth of the lens's
 aperture, together with every other pixel they changed by 8 grey levels: a drop is in
 the mask even over a background of its own colour, so the mask of a drop that stays put
 stays put.
