@@ -4,7 +4,8 @@ On a rendered racetrack frame (the weather gallery's, with depth and materials),
 weather steps as in an episode at 15 frames/s with the ego at 15 m/s. Interleaved:
 
 - the camera frame (renderer), the rain without the glass, the rain with it, and the
-  camera sensor: the costs of one rainy frame;
+  camera sensor: the costs of one rainy frame; and a bare highway-env step, the
+  baseline of every simroad benchmark (it tells how fast the machine is today);
 - the windscreen alone (its model applied on its own: its stage plus the runner's
   decode, encode and mask).
 
@@ -23,7 +24,7 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-from _harness import one_core, table
+from _harness import bare_racetrack_step, one_core, table
 
 from simroad.noise import NoiseContext, WindscreenModel, WindscreenParams, make_weather
 from simroad.noise.scene import SCENE_EGO_SPEED_M_S, SCENE_POSE, sample_scene
@@ -83,6 +84,7 @@ def main(repeats: int = 150) -> dict[str, dict[str, np.ndarray]]:
     """Print one table per glass; return the raw timings (seconds per call)."""
     one_core()
     render, sense, frame, world, kw = _frame_costs()
+    bare = bare_racetrack_step()
     results = {}
     for label, severity, glass in CASES:
         weather = {}
@@ -97,6 +99,7 @@ def main(repeats: int = 150) -> dict[str, dict[str, np.ndarray]]:
             "rain + windscreen": _stepper(weather["rain + windscreen"], frame, kw),
             "windscreen alone (model.apply)": _stepper(alone, frame, kw),
             "camera sensor": sense,
+            "bare highway-env step (racetrack-v0)": bare,
         }
         for step in list(cands.values())[1:4]:  # fill the glass and the sprite bank: the steady state
             for _ in range(150):
@@ -111,7 +114,7 @@ def main(repeats: int = 150) -> dict[str, dict[str, np.ndarray]]:
         print(
             f"windscreen adds {extra:.3f} ms (target <= {TARGET_MS:g} ms: {mark}), "
             f"{100 * extra / others:.0f} % of the frame's other costs ({others:.2f} ms: render + rain + sensor); "
-            f"{drops} drops on the glass",
+            f"{drops} drops on the glass; {extra / med['bare highway-env step (racetrack-v0)']:.2f}x a bare highway-env step",
             flush=True,
         )
         results[label] = times

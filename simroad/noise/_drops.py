@@ -197,50 +197,26 @@ def scene_low_pass(lin: np.ndarray, factor: int, fx: float) -> tuple[np.ndarray,
     return small, wide
 
 
-@dataclass
-class _Scratch:
-    cover: np.ndarray
-    touched: np.ndarray
-
-
-_SCRATCH: dict[tuple[int, int], _Scratch] = {}
-
-
 def draw_drops(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: float, factor: int) -> np.ndarray:
-    """Blend the drops into the linear frame ``lin`` (float32 (H, W, 3), C-contiguous, in place).
+    """Composite the drops over the linear frame ``lin`` (float32 (H, W, 3), C-contiguous, in place).
 
-    Every pixel sees ``(1 − A)·background + Σ w_scene·scene(src) + Σ(alpha − w_scene)·rim·mean``
-    with ``A = Σ alpha`` the summed defocused coverage of the drops over it (the drop
-    terms scaled by ``1/A`` where ``A`` passes 1), ``scene`` the frame low-passed by
-    ``factor`` and ``mean`` a drop's whole view averaged (:func:`scene_low_pass`),
-    both sampled bilinearly; a ``uniform`` sprite shows its mean view throughout.
+    Each drop pixel, in order of arrival: ``I ← (1 − α)·I + w·scene(src) + (α − w)·rim·mean``
+    with ``α`` the drop's defocused coverage of the aperture, ``w`` its part that carries
+    the refracted scene, ``scene`` the frame reduced by ``factor`` and ``mean`` the drop's
+    whole view averaged (:func:`scene_low_pass`), both sampled bilinearly; a ``uniform``
+    sprite shows its mean view throughout (:mod:`simroad.noise._drops_kernel`).
 
     Returns
     -------
     ndarray bool (H, W)
-        Where the drops cover at least a tenth of the lens's aperture
-        (``A >= COVERED``, :data:`simroad.noise._drops_kernel.COVERED`).
+        Where a drop covers at least a tenth of the lens's aperture
+        (``α >= COVERED``, :data:`simroad.noise._drops_kernel.COVERED`).
     """
     h, w = lin.shape[:2]
     covered = np.zeros(h * w, bool)
-    if not (drops.sprite >= 0).any():
-        return covered.reshape(h, w)
-    scratch = _SCRATCH.get((h, w))
-    if scratch is None:
-        scratch = _SCRATCH.setdefault((h, w), _Scratch(np.zeros(h * w, np.float32), np.zeros(h * w, np.int32)))
-    small, wide = scene_low_pass(lin, factor, bank.fx)
-    splat_drops(
-        lin,
-        small,
-        wide,
-        factor,
-        (drops.u, drops.v, drops.sprite),
-        bank.packed(),
-        float(rim),
-        scratch.cover,
-        scratch.touched,
-        covered,
-    )
+    if (drops.sprite >= 0).any():
+        small, wide = scene_low_pass(lin, factor, bank.fx)
+        splat_drops(lin, small, wide, factor, (drops.u, drops.v, drops.sprite), bank.packed(), float(rim), covered)
     return covered.reshape(h, w)
 
 
@@ -256,34 +232,22 @@ def _bilinear(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def draw_drops_reference(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: float, factor: int) -> None:
-    """:func:`draw_drops` in numpy (bincount sums, float64 bilinear samples): the
+    """:func:`draw_drops` in numpy (one drop at a time, float64 bilinear samples): the
     reference the compiled kernel is tested against."""
-    drawn = np.flatnonzero(drops.sprite >= 0)
-    if len(drawn) == 0:
-        return
     start, length, uniform, du, dv, alpha, w_scene, src_du, src_dv = bank.packed()
-    s = drops.sprite[drawn]
-    owner = np.repeat(drawn, length[s])
-    first = np.repeat(start[s] - np.concatenate([[0], np.cumsum(length[s])[:-1]]), length[s])
-    i = first + np.arange(len(owner))
-    h, w = lin.shape[:2]
-    x, y = drops.u[owner] + du[i], drops.v[owner] + dv[i]
-    ok = (x >= 0) & (x < w) & (y >= 0) & (y < h)
-    i, owner, idx = i[ok], owner[ok], (y * w + x)[ok]
     small, wide = scene_low_pass(lin, factor, bank.fx)
-    sx = (drops.u[owner] + src_du[i] + 0.5) / factor - 0.5
-    sy = (drops.v[owner] + src_dv[i] + 0.5) / factor - 0.5
-    one = uniform[drops.sprite[owner]] != 0
-    mean = _bilinear(wide, (drops.u[owner] + 0.5) / factor - 0.5, (drops.v[owner] + 0.5) / factor - 0.5)
-    seen = np.where(one[:, None], mean, _bilinear(small, sx, sy))
-    n = h * w
-    cover = np.bincount(idx, alpha[i], minlength=n)
-    touched = np.flatnonzero(cover)
-    a = cover[touched]
-    scale = 1.0 / np.maximum(a, 1.0)
-    flat = lin.reshape(-1, 3)
-    out = flat[touched] * (1.0 - a * scale)[:, None]
-    light = w_scene[i][:, None] * seen + (alpha[i] - w_scene[i])[:, None] * rim * mean
-    for c in range(3):
-        out[:, c] += np.bincount(idx, light[:, c], minlength=n)[touched] * scale
-    flat[touched] = out
+    h, w = lin.shape[:2]
+    for d in np.flatnonzero(drops.sprite >= 0):
+        s = drops.sprite[d]
+        i = np.arange(start[s], start[s] + length[s])
+        x, y = drops.u[d] + du[i], drops.v[d] + dv[i]
+        ok = (x >= 0) & (x < w) & (y >= 0) & (y < h)
+        i, x, y = i[ok], x[ok], y[ok]
+        cx, cy = (drops.u[d] + 0.5) / factor - 0.5, (drops.v[d] + 0.5) / factor - 0.5
+        mean = _bilinear(wide, np.array([cx]), np.array([cy]))
+        if uniform[s]:
+            seen = np.repeat(mean, len(i), axis=0)
+        else:
+            seen = _bilinear(small, cx + src_du[i] / factor, cy + src_dv[i] / factor)
+        a, ws = alpha[i][:, None], w_scene[i][:, None]
+        lin[y, x] = lin[y, x] * (1.0 - a) + ws * seen + (a - ws) * rim * mean

@@ -1,18 +1,19 @@
-"""The windscreen's per-frame pass: every drop's sprite splatted and blended, compiled.
+"""The windscreen's per-frame pass: every drop's sprite composited over the frame, compiled.
 
-Loops over the drops and their sprites' pixels (numba, ``cache=True``; the first call
-of a fresh install compiles for a few seconds and writes the cache next to this
-module): the drops' summed coverage ``A`` per pixel, the background dimmed to
-``1 − A`` (A clipped at 1), then each drop pixel's light added, scaled by ``1/A``
-where ``A`` passes 1. A drop pixel's light is the part of its coverage that carries
-the refracted scene times that scene (a bilinear sample of the reduced frame at the
-pixel's source, clamped at the border; for a drop drawn in one colour, a tiny one,
-its mean view: one sample of the widely averaged frame at its centre), plus the rest
-of its coverage, the totally reflecting rim, times ``rim`` times its mean view. The
-sums run in drop order without fast-math, so the result is the same whether the
-kernel was just compiled or loaded from the cache.
-:func:`simroad.noise._drops.draw_drops_reference` is the numpy reference the tests
-hold it to.
+One loop over the drops and their sprites' pixels (numba, ``cache=True``; the first
+call of a fresh install compiles for a few seconds and writes the cache next to this
+module). Each drop covers a fraction ``α`` of the lens's aperture at each of its pixels
+and is composited over what is behind it, in order of arrival:
+``I ← (1 − α)·I + w·scene + (α − w)·rim·mean``, where ``w ≤ α`` is the part of the drop
+that carries the refracted scene (a bilinear sample of the reduced frame at the pixel's
+source, clamped at the border; for a drop drawn in one colour, a tiny one, its mean
+view: one sample of the widely averaged frame at its centre) and ``α − w`` its totally
+reflecting rim, which shows ``rim`` times its mean view. Overlapping drops thus share the
+aperture as independent occluders (the covered fractions multiply), and the coverage
+never passes 1. The loop runs in drop order without fast-math, so the result is the
+same whether the kernel was just compiled or loaded from the cache.
+:func:`simroad.noise._drops.draw_drops_reference` is the numpy reference the tests hold
+it to.
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from numba import njit
 
 __all__ = ["COVERED", "splat_drops"]
 
-#: A pixel is in the windscreen's mask where drops cover at least this fraction of the
-#: lens's aperture (a tenth of its light comes from the glass: about where a drop's
+#: A pixel is in the windscreen's mask where a drop covers at least this fraction of the
+#: lens's aperture (a tenth of its light comes from the drop: about where a drop's
 #: change of the picture becomes noticeable at ordinary contrast).
 COVERED = 0.1
 
@@ -46,48 +47,6 @@ def _bilinear(image: np.ndarray, x: np.float32, y: np.float32) -> tuple[float, f
 
 
 @njit(cache=True, nogil=True)
-def _coverage(drops: tuple, bank: tuple, shape: tuple, cover: np.ndarray, touched: np.ndarray) -> int:
-    """Sum every drop pixel's ``alpha`` into ``cover``; list the pixels touched."""
-    u, v, sprite = drops
-    start, length, du, dv, alpha = bank
-    height, width = shape
-    count = 0
-    for d in range(u.size):
-        s = sprite[d]
-        if s < 0:
-            continue
-        for i in range(start[s], start[s] + length[s]):
-            x, y = u[d] + du[i], v[d] + dv[i]
-            if x < 0 or x >= width or y < 0 or y >= height:
-                continue
-            p = y * width + x
-            if cover[p] == 0.0:
-                touched[count] = p
-                count += 1
-            cover[p] += alpha[i]
-    return count
-
-
-@njit(cache=True, nogil=True)
-def _attenuate(lin: np.ndarray, cover: np.ndarray, touched: np.ndarray, count: int, covered: np.ndarray) -> None:
-    """Dim each touched pixel's background by the drops' coverage ``A`` (clipped at 1),
-    mark where ``A >= COVERED``, and leave in ``cover`` the drops' scale ``1/max(A, 1)``."""
-    width = lin.shape[1]
-    one, cover_min = np.float32(1.0), np.float32(COVERED)
-    for k in range(count):
-        p = touched[k]
-        y = p // width
-        x = p - y * width
-        a = cover[p]
-        covered[p] = a >= cover_min
-        scale = one / max(a, one)
-        keep = one - a * scale
-        for c in range(3):
-            lin[y, x, c] *= keep
-        cover[p] = scale
-
-
-@njit(cache=True, nogil=True)
 def splat_drops(
     lin: np.ndarray,
     small: np.ndarray,
@@ -96,15 +55,9 @@ def splat_drops(
     drops: tuple[np.ndarray, np.ndarray, np.ndarray],
     bank: tuple[np.ndarray, ...],
     rim: float,
-    cover: np.ndarray,
-    touched: np.ndarray,
     covered: np.ndarray,
-) -> int:
-    """Blend the drops into ``lin`` in place; returns the number of pixels touched.
-
-    Three passes: the drops' summed coverage per pixel, the background dimmed by it,
-    then every drop pixel's light added (scaled by ``1/A`` where ``A`` passes 1). The
-    scratch is one float per pixel, so the pass stays in the CPU's caches.
+) -> None:
+    """Composite the drops over ``lin`` in place, one after the other.
 
     Parameters
     ----------
@@ -120,20 +73,15 @@ def splat_drops(
         sprite bank (see :class:`simroad.noise._drops.SpriteBank`).
     rim : float
         What a drop's totally reflecting rim shows, as a fraction of its mean view.
-    cover : ndarray float32 (H·W,)
-        Zeros on entry; left zero on return.
-    touched : ndarray int32 (H·W,)
-        Scratch.
     covered : ndarray bool (H·W,)
-        Set where the drops' summed coverage is at least :data:`COVERED` (others left
+        Set where a drop covers at least :data:`COVERED` of the aperture (others left
         as they are).
     """
     u, v, sprite = drops
     start, length, uniform, du, dv, alpha, w_scene, src_du, src_dv = bank
     height, width = lin.shape[0], lin.shape[1]
-    count = _coverage(drops, (start, length, du, dv, alpha), (height, width), cover, touched)
-    _attenuate(lin, cover, touched, count, covered)
     inv, half, rim32 = np.float32(1.0 / factor), np.float32(0.5), np.float32(rim)
+    one, cover_min = np.float32(1.0), np.float32(COVERED)
     for d in range(u.size):
         s = sprite[d]
         if s < 0:
@@ -148,14 +96,12 @@ def splat_drops(
             x, y = u[d] + du[i], v[d] + dv[i]
             if x < 0 or x >= width or y < 0 or y >= height:
                 continue
-            scale = cover[y * width + x]
-            ws = w_scene[i] * scale
-            wr = alpha[i] * scale - ws
+            a, ws = alpha[i], w_scene[i]
+            keep, wr = one - a, a - ws
+            if a >= cover_min:
+                covered[y * width + x] = True
             if not one_colour:
                 r, g, b = _bilinear(small, cx + src_du[i] * inv, cy + src_dv[i] * inv)
-            lin[y, x, 0] += ws * r + wr * dr
-            lin[y, x, 1] += ws * g + wr * dg
-            lin[y, x, 2] += ws * b + wr * db
-    for k in range(count):
-        cover[touched[k]] = 0.0
-    return count
+            lin[y, x, 0] = lin[y, x, 0] * keep + ws * r + wr * dr
+            lin[y, x, 1] = lin[y, x, 1] * keep + ws * g + wr * dg
+            lin[y, x, 2] = lin[y, x, 2] * keep + ws * b + wr * db

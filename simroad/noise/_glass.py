@@ -48,7 +48,7 @@ __all__ = [
 
 WATER_N = 1.333
 #: Drops whose image half-width is below this (px) are drawn in one colour: their mean view.
-UNIFORM_BELOW_PX = 1.5
+UNIFORM_BELOW_PX = 2.5
 #: Sprite pixels the drop covers less than this (a fiftieth of the aperture) are left out.
 MIN_ALPHA = 0.02
 _MAX_RANGE_M = 2.0  # rays that graze the glass: seen this far along the ray at most

@@ -7,55 +7,82 @@ the sensor (stage ``optics``; the camera's sensor runs after all weather): it is
 
 Physics
 -------
+* **The glass** — a plane ``glass_distance_m`` (0.1 m) in front of the lens along the
+  optical axis, tilted back ``glass_tilt_deg`` (55°) from vertical, as a car's
+  windscreen before a camera at the mirror. Rows below the axis see it farther away and
+  more obliquely (0.06–0.4 m at the default mounting), so drops there look smaller and
+  flatter, and more of them are in view: the fraction of the image they cover is that of
+  the glass.
 * **Collection** — drops in the air hit the glass at the rate
   ``Σ n_i·(v·cos φ + w_i·sin φ)`` per m² of glass (n_i drops per m³ falling at w_i, the
-  car at v, the glass tilted back by φ from vertical): a headwind collects drops. Rain
-  drops follow Marshall–Palmer at the rain's rate (0.5–7 mm, Gunn–Kinzer speeds);
-  snowflakes (the snow's 1–5 mm flakes at 0.5–2 m/s) melt on the glass into drops of
-  the same mass (flake density ``snow_density_kg_m3``). Each arrival leaves a sessile
-  spherical cap of the same volume, contact angle ``contact_angle_deg``
-  (:func:`~simroad.noise._glass.contact_radius`; a 1 mm raindrop gives a 0.8 mm contact
-  radius at 60°), at a uniformly random point of the glass in view. Arrivals stop when
-  the drops cover ``max_coverage`` of the glass (real drops would merge) or number
-  ``max_drops``.
+  car at v, the glass tilted back by φ from vertical): a headwind collects drops
+  (:func:`collection_rate`; 15 800 /m²/s at 25 mm/h and 15 m/s). Rain drops follow
+  Marshall–Palmer at the rain's rate (0.5–7 mm, Gunn–Kinzer speeds); snowflakes (the
+  snow's 1–5 mm flakes at 0.5–2 m/s) melt on the glass into drops of the same mass
+  (flake density ``snow_density_kg_m3``). Each arrival leaves a sessile spherical cap of
+  the same volume and contact angle ``contact_angle_deg`` (50°, weathered glass;
+  :func:`~simroad.noise._glass.contact_radius`: a 1 mm raindrop spreads to a 0.87 mm
+  contact radius), capped at ``max_contact_radius_mm``, at a uniformly random point of
+  the glass in view. Arrivals stop when the drops cover ``max_coverage`` of the glass
+  (real drops would merge) or number ``max_drops``.
 * **Appearance** — each drop is a water lens (Roser & Geiger 2009; Halimeh & Roser
-  2009): it shows a small, inverted, wide-angle view of the scene around its line of
-  sight, with Fresnel losses growing towards its rim and a dark rim beyond the angle of
-  total internal reflection (:mod:`simroad.noise._glass`). The camera is focused far
-  away (``focus_m``), so the glass, a few centimetres in front of it, is blurred by the
-  thin-lens defocus disc ``c = A·f·|S − z|/(z·(S − f))`` (A = f/N the aperture). The
-  ratio of that blur to the drop's own image, ``A/(2a)``, does not depend on the glass
-  distance or the resolution: for f/2 at 4 mm (A = 2 mm) a 1.6 mm wide drop is blurred
-  over more than its width. A blurred drop partly covers the aperture, so the camera
-  sees ``(1 − α)·scene + Σ(drop light)`` with α the drop's coverage blurred by the disc
-  — the scene behind is not blurred.
+  2009): a ray leaving the cap at normalised radius ρ is bent by
+  ``asin(n·ρ·sin γ) − asin(ρ·sin γ)`` towards and past the axis, so the drop shows a
+  small, inverted, wide-angle view (up to 40° off its line of sight at 50°) of the scene —
+  the sky in its lower part, the road in its upper part — dimmed by the Fresnel loss at
+  its surface, and beyond ``ρ = 1/(n·sin γ)`` the rays are totally reflected: that rim
+  shows ``rim_brightness`` of the drop's mean view (:mod:`simroad.noise._glass`). The
+  camera is focused far away (``focus_m``), so the glass is blurred by the thin-lens
+  defocus disc ``c = A·f·|S − z|/(z·(S − f))`` (A = f/N, 2 mm for the default 4 mm f/2
+  lens: 4.5 px at 10 cm for the 320-px camera). The ratio of that blur to the drop's own
+  image, ``A/(2a)``, depends neither on the glass distance nor on the resolution: a
+  1.7 mm wide drop is blurred over more than its width. A blurred drop covers part of
+  the aperture, so the camera sees ``(1 − α)·scene + α·drop`` with α the drop's coverage
+  blurred by the disc — the scene behind stays sharp.
 * **Running drops** — along the glass, the airflow pushes a drop up with a force that
-  grows as ``v²·a²`` and gravity pulls it down with ``a³``; contact-angle hysteresis
-  holds it with a force ``∝ a``. In units of gravity's pull: net ``(v/v_c)²·(a_s/a) − 1``,
-  holding ``(a_s/a)²``, where ``a_s = slide_radius_mm`` is the drop that just runs down a
-  still car's glass and ``v_c = airflow_speed_m_s`` the speed at which the airflow's
-  push on it equals gravity's. A drop whose net force exceeds the holding one runs at
-  ``slide_speed_m_s`` times the excess (capped at 2): big drops run down at a standstill,
-  and at motorway speeds drops creep up the glass. A running drop keeps the sprite of
-  where it formed (its image size changes little over a frame).
+  grows as ``v²·a²``, gravity pulls it down with ``a³``, and contact-angle hysteresis
+  holds it with a force ``∝ a`` (Furmidge 1962). In units of gravity's pull: net
+  ``(v/v_c)²·(a_s/a) − 1``, holding ``(a_s/a)²``, where ``a_s = slide_radius_mm`` (2 mm)
+  is the drop that just runs down a still car's glass and ``v_c = airflow_speed_m_s``
+  (25 m/s) the car speed at which the airflow's push on it equals gravity's pull (an
+  estimate: drops of tens of µL shed in air streams of 10–20 m/s on hydrophilic
+  surfaces, Milne & Amirfazli 2009, and the glass's boundary layer slows the air at a
+  drop to about half the car's speed). A drop whose net force exceeds the holding one
+  runs at ``slide_speed_m_s`` times the excess (capped at 2): drops over 2 mm run down a
+  slow car's glass, and above 35 m/s (√2·v_c) drops creep up it. A running drop keeps
+  the sprite of where it formed.
 * **Wiper** — a blade turning about a pivot below the view (:mod:`simroad.noise._wiper`)
   sweeps an arc up and back in two strokes of ``wiper_stroke_s``; every drop whose
   centre the blade passes is gone. ``wiper_period_s``: seconds between cycle starts
   (at least two strokes), a mode (``"fast"`` 1 s = 60 cycles/min, ``"slow"`` 1.5 s = 40
   cycles/min — FMVSS 104 asks for at least 45 cycles/min at the high speed and a lower
   speed at least 15 cycles/min slower —, ``"intermittent"`` 5 s), ``"off"``/None, or
-  ``"auto"``: a rain sensor that starts a cycle when drops cover
+  ``"auto"`` (default): a rain sensor that starts a cycle when drops cover
   ``sensor_coverage`` of the glass. The blade itself is seen, defocused, as a dark band
-  while it crosses the view.
+  while it crosses the view (a frame or two per stroke at 15 frames/s).
 
 The first frame of an episode shows the glass as the rain left it since the last
 wipe (a random phase of the wiper cycle; 60 s of rain with the wiper off).
+
+Rendering and mask
+------------------
+A drop's image is a sprite (:class:`~simroad.noise._glass.Sprite`): its defocused
+coverage and, per pixel, where its refracted light comes from, made once per image
+size and blur (quantised in steps of 10 %) and kept in a bank shared by every episode;
+a frame costs one compiled pass over the drops' pixels
+(:mod:`simroad.noise._drops_kernel`) that samples the scene reduced 4x (``scene_low_pass``);
+drops less than 5 px wide are drawn in one colour, their mean view. The mask
+``"windscreen"`` is where a drop (or the blade) covers at least a tenth of the lens's
+aperture, together with every other pixel they changed by 8 grey levels: a drop is in
+the mask even over a background of its own colour, so the mask of a drop that stays put
+stays put.
 
 References: Roser & Geiger, *Video-based raindrop detection for improved image
 registration*, ICCV workshops 2009; Halimeh & Roser, *Raindrop detection on car
 windshields using geometric-photometric environment construction and
 intensity-based correlation*, IEEE IV 2009; Marshall & Palmer 1948; Furmidge, J.
-Colloid Sci. 1962 (drop retention on inclined surfaces); FMVSS 104 (windshield wiping).
+Colloid Sci. 1962; Milne & Amirfazli, Langmuir 2009 (drop shedding by shear flow);
+FMVSS 104 (windshield wiping and washing systems).
 """
 
 from __future__ import annotations
@@ -204,7 +231,7 @@ class WindscreenParams(Params):
     contact_angle_deg: float = 50.0
     max_contact_radius_mm: float = 2.5
     slide_radius_mm: float = 2.0
-    airflow_speed_m_s: float = 15.0
+    airflow_speed_m_s: float = 25.0
     slide_speed_m_s: float = 0.05
     max_coverage: float = 0.35
     max_drops: int = 2000
@@ -446,14 +473,17 @@ class WindscreenModel(NoiseModel):
         if count <= 0:
             return
         p = self.params
-        size = np.minimum(np.searchsorted(cum_share, rng.random(count) * cum_share[-1]), len(cum_share) - 1)
-        radius = self._bins[1][size]
-        pixel = np.searchsorted(view.area_cdf, rng.random(count) * view.area_cdf[-1], side="right")
-        pixel = np.minimum(pixel, view.area_cdf.size - 1)  # uniform on the glass: by each pixel's glass area
+        draw = rng.random((2, count))
+        radius = self._bins[1][np.minimum(cum_share.searchsorted(draw[0] * cum_share[-1]), len(cum_share) - 1)]
+        pixel = view.area_cdf.searchsorted(draw[1] * view.area_cdf[-1], side="right")  # uniform on the glass
+        pixel = np.minimum(pixel, view.area_cdf.size - 1)
+        area = np.pi * radius**2 / view.view_area_m2
         room = p.max_coverage - self.drops.coverage(view.view_area_m2)
-        fits = np.cumsum(np.pi * radius**2) / view.view_area_m2 <= room
-        fits[max(0, p.max_drops - len(self.drops)) :] = False
-        self.drops.add(view, self._bank(view), pixel[fits], radius[fits], min_px=p.min_drop_px)
+        if area.sum() > room or len(self.drops) + count > p.max_drops:  # the glass is full
+            fits = np.cumsum(area) <= room
+            fits[max(0, p.max_drops - len(self.drops)) :] = False
+            pixel, radius = pixel[fits], radius[fits]
+        self.drops.add(view, self._bank(view), pixel, radius, min_px=p.min_drop_px)
 
     def _start(self, view: GlassView, speed: float, rng: np.random.Generator) -> None:
         """The first frame: the glass as the rain left it since the last wipe."""

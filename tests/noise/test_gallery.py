@@ -6,7 +6,7 @@ import pytest
 from PIL import Image
 
 from simroad import SimroadError
-from simroad.noise.gallery import GALLERY_NOISES, GALLERY_SEVERITIES, render_gallery
+from simroad.noise.gallery import GALLERY_NOISES, GALLERY_SEVERITIES, render_gallery, render_wiper_sequence
 
 
 def test_gallery_is_one_small_png_with_a_row_per_noise(tmp_path):
@@ -27,3 +27,11 @@ def test_gallery_frame_is_the_shared_sample_scene():
     from simroad.noise.scene import sample_scene
 
     assert gallery_frame is sample_scene
+
+
+def test_wiper_figure_is_eight_frames_around_a_wipe(tmp_path):
+    path = render_wiper_sequence(tmp_path / "windscreen.png", size=(160, 90))
+    with Image.open(path) as img:
+        assert img.format == "PNG" and img.size == (4 * 160, 2 * 90)
+    with pytest.raises(SimroadError, match=r"path: expected a \.png"):
+        render_wiper_sequence(tmp_path / "windscreen.gif")
