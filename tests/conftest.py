@@ -91,23 +91,34 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     items.sort(key=rank.__getitem__)  # stable: the rest keep their order
 
 
-def pytest_xdist_make_scheduler(config: pytest.Config, log):
-    """With ``-n`` (xdist's default ``--dist load``): :class:`_LongestFirst`. (pytest 9
-    ignores the node ids that xdist's own ``--dist loadgroup`` rewrites to group tests.)"""
-    if config.getvalue("dist") != "load":
-        return None  # another --dist asked for by name
-    from xdist.scheduler import LoadScopeScheduling
+class _XdistHooks:
+    """xdist's scheduler hook, registered only where xdist is loaded (``-p no:xdist``
+    runs would otherwise stop on an unknown hook)."""
 
-    class _LongestFirst(LoadScopeScheduling):
-        """One test at a time, or one :data:`SHARED` group, in the collection's order to
-        whichever worker has at most two left (xdist's ``loadscope`` with our scopes)."""
+    @staticmethod
+    def pytest_xdist_make_scheduler(config: pytest.Config, log):
+        """With ``-n`` (xdist's default ``--dist load``): longest first, one test or one
+        :data:`SHARED` group at a time. (pytest 9 ignores the node ids that xdist's own
+        ``--dist loadgroup`` rewrites to group tests.)"""
+        if config.getvalue("dist") != "load":
+            return None  # another --dist asked for by name
+        from xdist.scheduler import LoadScopeScheduling
 
-        def _split_scope(self, nodeid: str) -> str:
-            group = next((g for prefix, g in SHARED if nodeid.startswith(prefix)), None)
-            return group or nodeid
+        class _LongestFirst(LoadScopeScheduling):
+            """One test at a time, or one :data:`SHARED` group, in the collection's order to
+            whichever worker has at most two left (xdist's ``loadscope`` with our scopes)."""
 
-    config.option.loadscopereorder = False  # keep the longest-first order
-    return _LongestFirst(config, log)
+            def _split_scope(self, nodeid: str) -> str:
+                group = next((g for prefix, g in SHARED if nodeid.startswith(prefix)), None)
+                return group or nodeid
+
+        config.option.loadscopereorder = False  # keep the longest-first order
+        return _LongestFirst(config, log)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    if config.pluginmanager.hasplugin("xdist"):
+        config.pluginmanager.register(_XdistHooks(), "simroad-xdist-scheduler")
 
 
 @pytest.fixture
