@@ -306,7 +306,6 @@ def collection_rate(
     *,
     flake_density_m3: float = 0.0,
     glass_tilt_deg: float = 55.0,
-    snow_density_kg_m3: float = 100.0,
 ) -> float:
     """Drops hitting one m² of windscreen per second: ``Σ n_i·(v·cos φ + w_i·sin φ)``.
 
@@ -320,14 +319,12 @@ def collection_rate(
         Snowflakes of 1–5 mm per m³.
     glass_tilt_deg : float
         Tilt φ of the glass back from vertical, degrees.
-    snow_density_kg_m3 : float
-        Unused by the rate (it sets the melted drops' size); kept for symmetry.
     """
     rain = check_in_range("rain_rate_mm_h", rain_rate_mm_h, 0.0, 300.0, unit="mm/h")
     snow = check_in_range("flake_density_m3", flake_density_m3, 0.0, 20000.0, unit="1/m^3")
     v = abs(check_in_range("speed_m_s", speed_m_s, -100.0, 100.0, unit="m/s"))
     phi = math.radians(check_in_range("glass_tilt_deg", glass_tilt_deg, 0.0, 90.0, unit="degrees"))
-    n, _, w = _sources(rain, snow, snow_density_kg_m3)
+    n, _, w = _sources(rain, snow, _WATER_KG_M3)  # the flakes' density sets their drops' size, not the rate
     return float(np.sum(n * (v * math.cos(phi) + w * math.sin(phi))))
 
 
