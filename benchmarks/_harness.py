@@ -24,18 +24,26 @@ def one_core() -> None:
 
 
 def interleaved(
-    candidates: dict[str, Callable[[], object]], *, repeats: int = 50, warmup: int = 3
+    candidates: dict[str, Callable[[], object]],
+    *,
+    repeats: int = 50,
+    warmup: int = 3,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> dict[str, np.ndarray]:
-    """Time each candidate ``repeats`` times in round-robin order; seconds per call."""
+    """Time each candidate ``repeats`` times in round-robin order; seconds per call.
+
+    ``clock`` is wall time by default; ``time.thread_time`` counts only the CPU time of
+    this thread, which other processes on a busy shared machine do not inflate.
+    """
     for fn in candidates.values():
         for _ in range(warmup):
             fn()
     times: dict[str, list[float]] = {k: [] for k in candidates}
     for _ in range(repeats):
         for name, fn in candidates.items():
-            t0 = time.perf_counter()
+            t0 = clock()
             fn()
-            times[name].append(time.perf_counter() - t0)
+            times[name].append(clock() - t0)
     return {k: np.asarray(v) for k, v in times.items()}
 
 

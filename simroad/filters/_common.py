@@ -150,6 +150,24 @@ def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
 # Filters that reason in linear light (glare, shadows) invert it here.
 
 
+def pow_sparing_zeros(x: np.ndarray, power: float) -> np.ndarray:
+    """``cv2.pow(x, power)`` of a float32 array, bit for bit, faster where it holds many zeros.
+
+    ``cv2.pow`` takes a slow path for each zero (about eight times the time of another
+    value); the zeros are raised as ones and then given ``cv2.pow``'s own result for a
+    zero of their sign.
+    """
+    zero = x == 0
+    if not zero.any():
+        return cv2.pow(x, power)
+    negative = zero & np.signbit(x)
+    out = cv2.pow(np.where(zero, np.float32(1.0), x), power)
+    plus, minus = cv2.pow(np.array([[0.0, -0.0]], np.float32), power).reshape(-1)
+    out[zero] = plus
+    out[negative] = minus
+    return out
+
+
 def camera_to_linear(p: np.ndarray, shoulder: float) -> np.ndarray:
     """Display value in [0, 1] -> the camera's linear signal: encoding undone, shoulder undone (float32).
 
@@ -169,6 +187,6 @@ def linear_to_camera(y: np.ndarray, shoulder: float, *, gain: np.float32 | None 
     if y.dtype != np.float32:  # rounded to float32 after the clip, as always
         y = np.clip(y, 0.0, 1.0).astype(np.float32)
     z = np.empty(y.shape, np.float32)
-    response_forward(np.ascontiguousarray(y), np.float32(1.0 if gain is None else gain), np.float32(1.0 + shoulder),
-                     np.float32(shoulder), z)  # fmt: skip
-    return cv2.pow(z, 1.0 / GAMMA)
+    zeros = response_forward(np.ascontiguousarray(y), np.float32(1.0 if gain is None else gain),
+                             np.float32(1.0 + shoulder), np.float32(shoulder), z)  # fmt: skip
+    return pow_sparing_zeros(z, 1.0 / GAMMA) if zeros else cv2.pow(z, 1.0 / GAMMA)

@@ -238,14 +238,19 @@ def response_inverse(z: np.ndarray, one_k: Any, k: Any) -> None:
 
 
 @njit(cache=True, nogil=True)
-def response_forward(y: np.ndarray, gain: Any, one_k: Any, k: Any, out: np.ndarray) -> None:
-    """``out = one_k * c / (1 + k * c)`` with ``c = clip(y * gain, 0, 1)``, float32 (the shoulder applied)."""
+def response_forward(y: np.ndarray, gain: Any, one_k: Any, k: Any, out: np.ndarray) -> int:
+    """``out = one_k * c / (1 + k * c)`` with ``c = clip(y * gain, 0, 1)``, float32 (the shoulder
+    applied); returns how many outputs are zero."""
     src, dst = y.reshape(-1), out.reshape(-1)
     zero, one = np.float32(0.0), np.float32(1.0)
+    zeros = 0
     for i in range(src.size):
         v = src[i] * gain
         v = zero if v < zero else (one if v > one else v)  # np.clip (NaN stays NaN)
-        dst[i] = one_k * v / (one + k * v)
+        z = one_k * v / (one + k * v)
+        dst[i] = z
+        zeros += z == zero
+    return zeros
 
 
 @njit(cache=True, nogil=True)

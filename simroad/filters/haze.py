@@ -52,7 +52,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import check_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
+from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, pow_sparing_zeros, to_planes
 from simroad.filters._kernels import (
     LEVELS,
     MONOTONE_FROM,
@@ -110,7 +110,7 @@ def _dehaze_rows(p: np.ndarray, out: np.ndarray, n: int, gain: np.ndarray, lift:
         tables = _level_powers(gamma).reshape(1, -1) * gain
         tables += lift
         np.clip(tables, 0.0, 1.0, out=tables)
-        apply_row_tables(codes, cv2.pow(tables, 1.0 / gamma), out[:n])
+        apply_row_tables(codes, pow_sparing_zeros(tables, 1.0 / gamma), out[:n])
         return
     lin = cv2.pow(p[:n], gamma)
     lin *= gain

@@ -45,8 +45,11 @@ shadow 0.4 6.7 / 1.1 -> 6.3 / 1.2 %, shadow 0.8 15.3 / 1.0 -> 11.3 / 1.0 %. Clea
 rain, snow and fog frames come back bit-identical (the sky test); 1 of 48 glare
 frames at 0.4 and at 0.8 is touched, the cells' FNR/FPR unchanged. Without the sky
 test 14 of 48 clear frames held enough shadow-like pairs (repair patches, window
-bands of buildings). Cost at 320x180: < 1 ms on frames without shadows, 10-13 ms
-median on shadow frames (the rounds of step 3).
+bands of buildings). Cost at 320x180 (CPU time on the shared machine, ``make bench``):
+about 0.1 ms on frames without shadows (the sky test), 2-5 ms on shadow frames, most
+of it the rounds of step 3, whose box filters, medians and per-pixel steps are compiled
+(:mod:`simroad.filters._kernels`, bit for bit the numpy/OpenCV computation); the two
+projections of a round stay numpy's (BLAS).
 """
 
 from __future__ import annotations

@@ -336,3 +336,18 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
         got = np.empty((3, h, w), dtype)
         lit_diff(logs, lit, weighted, frame, (k,), dtype(0.15), dtype(1e-6), got)
         np.testing.assert_array_equal(got, logs - mean)
+
+
+@pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
+def test_pow_sparing_zeros_is_cv2_pow(power):
+    from simroad.filters._common import pow_sparing_zeros
+
+    rng = np.random.default_rng(17)
+    x = rng.random((50, 256), dtype=np.float32)
+    x[:, :60] = 0.0
+    x[3, :5] = -0.0
+    for a in (x, x[0], rng.random((4, 9), dtype=np.float32)):
+        got, expect = pow_sparing_zeros(a, power), cv2.pow(a, power)
+        assert got.shape == expect.shape
+        np.testing.assert_array_equal(got, expect)
+        np.testing.assert_array_equal(np.signbit(got), np.signbit(expect))
