@@ -1,4 +1,5 @@
-"""Shared fixtures and the ``slow`` marks. Everything runs headless (simroad sets SDL's dummy driver)."""
+"""Shared fixtures, the ``slow`` marks, and with ``-n`` the order and grouping of the tests
+across xdist workers. Everything runs headless (simroad sets SDL's dummy driver)."""
 
 from __future__ import annotations
 
