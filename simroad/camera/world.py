@@ -17,6 +17,7 @@ their own, so the camera's ``material`` map tells every visible thing apart.
 from __future__ import annotations
 
 import math
+import weakref
 from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -370,8 +371,15 @@ class WorldRaster:
         j0, j1 = math.floor((ymin + min(ly, 0.0)) / tm) - 1, math.floor((ymax + max(ly, 0.0)) / tm) + 1
         rgba, material = self._assemble(i0, i1, j0, j1, 0)
 
+        # The window is kept by this world: a weak reference back, not a cycle that would
+        # hold the whole world (hundreds of MB) until the cyclic garbage collector ran.
+        world = weakref.ref(self)
+
         def level_source(k: int) -> np.ndarray:
-            return self._assemble(i0, i1, j0, j1, k)[0]
+            raster = world()
+            if raster is None:
+                raise SimroadError("this window's world is gone: keep the WorldRaster while its windows are in use.")
+            return raster._assemble(i0, i1, j0, j1, k)[0]
 
         self._windows[slot] = Window(rgba, material, i0 * tm, j0 * tm, self.texel_m, level_source)
         return self._windows[slot]
