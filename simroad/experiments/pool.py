@@ -15,8 +15,8 @@ at worst leave the last line torn, which the next run moves aside.
 
 from __future__ import annotations
 
+import multiprocessing
 import signal
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -33,14 +33,24 @@ _POLL_S = 0.1
 _TERM_GRACE_S = 2.0
 
 
+#: Imported once by the fork server, before it forks any worker: every worker starts with
+#: simroad's episode machinery loaded (about a second each otherwise).
+_PRELOAD = ["simroad.experiments.ablate"]
+
+
 def _context() -> Any:
-    """How to start workers: fork (they inherit the parent's imports, fast), unless
-    this process has run Ray: its gRPC threads hold locks a forked worker would
-    inherit taken, and hang on (a clean fork server then starts them; the cell
-    function must be importable, as :func:`~simroad.experiments.ablate.run_cell` is)."""
-    if "ray" in sys.modules:
-        return get_context("forkserver")
-    return get_context()
+    """How to start workers: from a fork server where the platform has one (Linux, macOS),
+    else spawn (Windows). Never a plain fork of the caller: OpenCV's thread pool, numba's
+    and Ray's threads hold locks that a forked child inherits taken, and the child hangs
+    on the first of them (seen: ``cv2.setNumThreads`` in a forked worker waiting forever
+    in ``pthread_cond_destroy`` after the parent had run OpenCV). The fork server is a
+    clean process started once per parent; the cell function must be importable (a
+    top-level function of a module), as :func:`~simroad.experiments.ablate.run_cell` is."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return get_context("spawn")
+    ctx = get_context("forkserver")
+    ctx.set_forkserver_preload(_PRELOAD)  # no effect once the server runs
+    return ctx
 
 
 class Interrupts:

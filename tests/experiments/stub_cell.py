@@ -10,8 +10,9 @@ import time
 from simroad.experiments.ablate import run_cell
 from simroad.experiments.episode import RECORD_KEYS, format_filters
 
-#: Seconds each stub episode sleeps (set before the sweep; forked workers inherit it;
-#: a CLI subprocess takes it from the environment variable ``SIMROAD_STUB_DELAY_S``).
+#: Seconds each stub episode sleeps, from the environment variable ``SIMROAD_STUB_DELAY_S``
+#: (sweep workers start from a fork server and import this module afresh: set the variable
+#: before the first sweep of the process, not this attribute).
 DELAY_S = float(os.environ.get("SIMROAD_STUB_DELAY_S", "0.005"))
 #: The cell whose episode raises: the oracle of seed 13.
 FAILING_SEED, FAILING_DRIVER = 13, "oracle"

@@ -102,10 +102,9 @@ def test_a_directory_with_another_grid_is_refused_unless_fresh(tmp_path):
 def test_kill_minus_9_mid_sweep_then_rerun_gives_one_row_per_cell(tmp_path):
     out = tmp_path / "killed"
     script = textwrap.dedent(f"""
-        import sys
+        import os, sys
         sys.path.insert(0, {str(HERE)!r})
-        import stub_cell as stub
-        stub.DELAY_S = 0.05  # slow enough to be killed mid-sweep
+        os.environ["SIMROAD_STUB_DELAY_S"] = "0.05"  # slow enough to be killed mid-sweep (workers read it)
         from stub_cell import stub_cell
         from simroad.experiments.ablate import run_ablation
         from simroad.experiments.grid import AblationGrid
