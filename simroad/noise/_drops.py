@@ -51,6 +51,8 @@ class SpriteBank:
         self.fx = float(view.fx)
         self.contact_angle_deg = float(contact_angle_deg)
         qb = _blur_code(view.blur.ravel())
+        #: Each pixel's quantised blur (flat): half of a new drop's key in one lookup.
+        self.blur_code = qb
         cos_inc = view.cos_inc.ravel()
         self._aspect = {int(q): float(np.median(cos_inc[qb == q])) for q in np.unique(qb)}
         self._table = np.full(0, -1, np.int32)  # quantised key -> sprite id, -1: not made yet
@@ -67,8 +69,12 @@ class SpriteBank:
     def ids(self, rx: np.ndarray, blur: np.ndarray) -> np.ndarray:
         """Sprite ids (int32) for image half-widths ``rx`` (px) and blur diameters (px);
         sprites not yet in the bank are made and added."""
+        return self.ids_coded(rx, _blur_code(blur))
+
+    def ids_coded(self, rx: np.ndarray, blur_code: np.ndarray) -> np.ndarray:
+        """:meth:`ids` with the blur already quantised (e.g. ``blur_code[pixel]``)."""
         qr = np.rint(np.log(np.clip(rx, 0.05, 1e4) / 0.05) / _LOG_STEP).astype(np.int64)
-        code = qr * 256 + _blur_code(blur)
+        code = qr * 256 + blur_code
         if code.max() >= len(self._table):
             self._table = np.concatenate([self._table, np.full(int(code.max()) + 1 - len(self._table), -1, np.int32)])
         sid = self._table[code]
@@ -140,11 +146,11 @@ class DropField:
             return
         vi, ui = (a.astype(np.int32) for a in np.divmod(pixel, view.config.width))
         gx, gy = view.gx.ravel()[pixel].astype(float), view.gy.ravel()[pixel].astype(float)
-        rx = view.fx * radius / view.dist[vi, ui]
+        rx = view.fx * radius / view.dist.ravel()[pixel]
         sprite = np.full(len(radius), -1, np.int32)
         drawn = rx >= min_px
         if drawn.any():
-            sprite[drawn] = bank.ids(rx[drawn], view.blur[vi, ui][drawn])
+            sprite[drawn] = bank.ids_coded(rx[drawn], bank.blur_code[pixel[drawn]])
         self.gx = np.concatenate([self.gx, gx])
         self.gy = np.concatenate([self.gy, gy])
         self.radius = np.concatenate([self.radius, radius])
@@ -197,7 +203,15 @@ def scene_low_pass(lin: np.ndarray, factor: int, fx: float) -> tuple[np.ndarray,
     return small, wide
 
 
-def draw_drops(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: float, factor: int) -> np.ndarray:
+def draw_drops(
+    lin: np.ndarray,
+    drops: DropField,
+    bank: SpriteBank,
+    *,
+    rim: float,
+    factor: int,
+    touched: np.ndarray | None = None,
+) -> np.ndarray:
     """Composite the drops over the linear frame ``lin`` (float32 (H, W, 3), C-contiguous, in place).
 
     Each drop pixel, in order of arrival: ``I ← (1 − α)·I + w·scene(src) + (α − w)·rim·mean``
@@ -205,6 +219,8 @@ def draw_drops(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: floa
     the refracted scene, ``scene`` the frame reduced by ``factor`` and ``mean`` the drop's
     whole view averaged (:func:`scene_low_pass`), both sampled bilinearly; a ``uniform``
     sprite shows its mean view throughout (:mod:`simroad.noise._drops_kernel`).
+
+    ``touched`` (bool (H, W), optional) is set at every pixel written.
 
     Returns
     -------
@@ -216,7 +232,9 @@ def draw_drops(lin: np.ndarray, drops: DropField, bank: SpriteBank, *, rim: floa
     covered = np.zeros(h * w, bool)
     if (drops.sprite >= 0).any():
         small, wide = scene_low_pass(lin, factor, bank.fx)
-        splat_drops(lin, small, wide, factor, (drops.u, drops.v, drops.sprite), bank.packed(), float(rim), covered)
+        written = np.zeros(h * w, bool) if touched is None else touched.reshape(-1)
+        packed = (drops.u, drops.v, drops.sprite)
+        splat_drops(lin, small, wide, factor, packed, bank.packed(), float(rim), covered, written)
     return covered.reshape(h, w)
 
 

@@ -18,10 +18,12 @@ it to.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-__all__ = ["COVERED", "splat_drops"]
+__all__ = ["COVERED", "advance_drops", "splat_drops"]
 
 #: A pixel is in the windscreen's mask where a drop covers at least this fraction of the
 #: lens's aperture (a tenth of its light comes from the drop: about where a drop's
@@ -56,6 +58,7 @@ def splat_drops(
     bank: tuple[np.ndarray, ...],
     rim: float,
     covered: np.ndarray,
+    touched: np.ndarray,
 ) -> None:
     """Composite the drops over ``lin`` in place, one after the other.
 
@@ -76,6 +79,8 @@ def splat_drops(
     covered : ndarray bool (H·W,)
         Set where a drop covers at least :data:`COVERED` of the aperture (others left
         as they are).
+    touched : ndarray bool (H·W,)
+        Set at every pixel written (others left as they are).
     """
     u, v, sprite = drops
     start, length, uniform, du, dv, alpha, w_scene, src_du, src_dv = bank
@@ -98,6 +103,7 @@ def splat_drops(
                 continue
             a, ws = alpha[i], w_scene[i]
             keep, wr = one - a, a - ws
+            touched[y * width + x] = True
             if a >= cover_min:
                 covered[y * width + x] = True
             if not one_colour:
@@ -105,3 +111,74 @@ def splat_drops(
             lin[y, x, 0] = lin[y, x, 0] * keep + ws * r + wr * dr
             lin[y, x, 1] = lin[y, x, 1] * keep + ws * g + wr * dg
             lin[y, x, 2] = lin[y, x, 2] * keep + ws * b + wr * db
+
+
+@njit(cache=True, nogil=True)
+def advance_drops(
+    gx: np.ndarray,
+    gy: np.ndarray,
+    velocity: np.ndarray,
+    u: np.ndarray,
+    v: np.ndarray,
+    dt: float,
+    project: np.ndarray,
+    size: tuple[int, int],
+    wiper: tuple[float, float, float],
+    swept: np.ndarray,
+) -> np.ndarray:
+    """One frame of the drops' motion and of the wiper, in one pass (in place).
+
+    Each drop with a non-zero ``velocity`` (m/s up the glass) moves by ``velocity·dt``
+    and is projected again (``u``, ``v``: the nearest pixel); it is gone if its centre
+    left the image. A drop within the blade's reach whose angle about the pivot lies
+    in one of the ``swept`` intervals is gone too.
+
+    Parameters
+    ----------
+    gx, gy : ndarray float64
+        Glass coordinates, m (``gy`` is updated).
+    velocity : ndarray float64
+        Velocity along the glass, m/s.
+    u, v : ndarray int32
+        Image pixels of the drops (updated for the moving ones).
+    dt : float
+        Frame interval, s.
+    project : ndarray float64 (3, 3)
+        Columns: the homogeneous image point of the glass origin, and its change per
+        metre of ``gx`` and of ``gy``.
+    size : tuple
+        Image ``(width, height)``, px.
+    wiper : tuple
+        Pivot ``(x, y)`` on the glass, m, and the blade's length, m.
+    swept : ndarray float64 (k, 2)
+        Blade angles ``[lo, hi]`` swept during the frame (radians; none: no wipe).
+
+    Returns
+    -------
+    ndarray bool
+        The drops still on the glass and in view.
+    """
+    width, height = size
+    px, py, reach = wiper
+    alive = np.ones(gx.size, np.bool_)
+    for d in range(gx.size):
+        if velocity[d] != 0.0:
+            gy[d] += velocity[d] * dt
+            cx = project[0, 0] + project[0, 1] * gx[d] + project[0, 2] * gy[d]
+            cy = project[1, 0] + project[1, 1] * gx[d] + project[1, 2] * gy[d]
+            cz = project[2, 0] + project[2, 1] * gx[d] + project[2, 2] * gy[d]
+            x, y = cx / cz, cy / cz
+            if x < -0.5 or x > width - 0.5 or y < -0.5 or y > height - 0.5:
+                alive[d] = False
+                continue
+            u[d] = min(max(np.rint(x), 0.0), width - 1.0)
+            v[d] = min(max(np.rint(y), 0.0), height - 1.0)
+        if swept.shape[0] > 0:
+            rx, ry = gx[d] - px, gy[d] - py
+            if math.hypot(ry, rx) <= reach:
+                angle = math.atan2(ry, rx)
+                for k in range(swept.shape[0]):
+                    if swept[k, 0] <= angle <= swept[k, 1]:
+                        alive[d] = False
+                        break
+    return alive

@@ -179,6 +179,13 @@ class GlassView:
         p = rays * t - self._origin[:, None]
         return p[1], self._up @ p, t * np.linalg.norm(rays, axis=0)
 
+    def projection(self) -> np.ndarray:
+        """(3, 3) float64: the homogeneous image point of the glass origin, and its
+        change per metre along the glass's ``gx`` and ``gy`` (columns), as
+        :meth:`glass_to_pixel` maps them."""
+        m = self._K @ self._R
+        return np.stack([m @ self._origin, m @ np.array([0.0, 1.0, 0.0]), m @ self._up], axis=1)
+
     def glass_to_pixel(self, gx: np.ndarray, gy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Image points ``(u, v)`` (px) of glass points ``(gx, gy)`` (m)."""
         gx, gy = np.asarray(gx, float), np.asarray(gy, float)

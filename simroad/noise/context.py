@@ -190,6 +190,10 @@ class FrameState:
         Pixels the current stage's model covers (drops and the wiper on the
         windscreen), which belong in its noise mask whether or not they changed by the
         threshold: the runner adds them to that stage's mask.
+    touched : ndarray, bool, (H, W) or None
+        Set by a stage that changed ``lin`` at these pixels only (every other value
+        left bit for bit as it was): the runner then encodes these pixels alone. Only
+        for a model with one stage in the frame.
     """
 
     lin: np.ndarray
@@ -204,6 +208,7 @@ class FrameState:
     sky_clear: float = 0.0
     unmasked: np.ndarray | None = None
     covered: np.ndarray | None = None
+    touched: np.ndarray | None = None
     _cache: dict = field(default_factory=dict)
 
     @property

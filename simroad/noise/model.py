@@ -32,8 +32,9 @@ from simroad._validation import (
     check_int_in_range,
     normalize_rng,
 )
+from simroad.noise._encode_kernel import encode_touched
 from simroad.noise.context import FrameState, NoiseContext, resolve_frame
-from simroad.noise.radiometry import as_uint8, change_mask, linear_to_srgb, srgb_to_linear
+from simroad.noise.radiometry import MASK_THRESHOLD, as_uint8, change_mask, linear_to_srgb, srgb_to_linear
 
 __all__ = ["STAGES", "Limit", "NoiseModel", "NoiseResult", "Params", "run_models"]
 
@@ -271,12 +272,18 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
         # on the road surface have nothing to act on.
         plan = [(stage, m) for stage, m in plan if stage not in _SURFACE_STAGES]
     enc_prev = as_uint8(image)
+    encoded = False  # whether enc_prev is linear_to_srgb(state.lin) (not the input)
     for k, (stage, m) in enumerate(plan):
         getattr(m, stage)(state)
         if k + 1 < len(plan) and plan[k + 1][1] is m:
+            state.touched = None
             continue  # same model again: one mask update covers both stages
-        enc = linear_to_srgb(state.lin)
-        changed = change_mask(enc_prev, enc)
+        if state.touched is not None and encoded:  # a few pixels changed: encode those
+            enc, changed = encode_touched(state.lin, state.touched, enc_prev, MASK_THRESHOLD)
+        else:
+            enc = linear_to_srgb(state.lin)
+            changed = change_mask(enc_prev, enc)
+        state.touched, encoded = None, True
         if state.unmasked is not None:  # the sky clearing for the sun is not noise
             changed &= ~state.unmasked
             state.unmasked = None

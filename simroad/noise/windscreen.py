@@ -96,7 +96,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.noise._drops import DropField, SpriteBank, draw_drops
-from simroad.noise._drops_kernel import COVERED
+from simroad.noise._drops_kernel import COVERED, advance_drops
 from simroad.noise._glass import Glass, GlassView, contact_radius, defocus_diameter_m, glass_view
 from simroad.noise._wiper import blade_angle, blade_coverage, swept_interval
 from simroad.noise.context import FrameState
@@ -395,6 +395,7 @@ class WindscreenModel(NoiseModel):
         self._cycle_start = -math.inf  # start of the latest wipe cycle, s
         self._view: GlassView | None = None
         self._pivot_maps: tuple[np.ndarray, np.ndarray, float, float] | None = None
+        self._projection: np.ndarray | None = None
         self._rate_cache: tuple[tuple[float, float], float, np.ndarray] | None = None
 
     # ----------------------------------------------------------- the stage
@@ -410,16 +411,16 @@ class WindscreenModel(NoiseModel):
             before = self._clock
             now = self._clock = before + ctx.dt
             self._arrive(view, speed, ctx.dt, rng)
-            if self._may_slide(speed):
-                v = slide_velocity(self.drops.radius, speed, p)
-                self.drops.move(view, v != 0.0, v * ctx.dt)
-            self._wipe(before, now)
+            self._advance(view, speed, ctx.dt, before, now)
             if p.wiper_period_s == "auto" and now - self._cycle_start >= 2.0 * p.wiper_stroke_s:
                 if self.drops.coverage(view.view_area_m2) >= p.sensor_coverage:
                     self._cycle_start = now  # the rain sensor starts a cycle
         factor = max(1, round(state.shape[1] / 80))
-        state.covered = draw_drops(state.lin, self.drops, self._bank(view), rim=p.rim_brightness, factor=factor)
-        self._draw_blade(state.lin, view, now, state.covered)
+        touched = np.zeros(state.shape, bool)  # the runner encodes these pixels only
+        bank = self._bank(view)
+        state.covered = draw_drops(state.lin, self.drops, bank, rim=p.rim_brightness, factor=factor, touched=touched)
+        self._draw_blade(state.lin, view, now, state.covered, touched)
+        state.touched = touched
 
     def _bank(self, view: GlassView) -> SpriteBank:
         key = (view.config, view.glass, self.params.contact_angle_deg)
@@ -487,6 +488,7 @@ class WindscreenModel(NoiseModel):
         p = self.params
         self.drops, self._view, self._clock = DropField(), view, 0.0
         self._pivot_maps = None
+        self._projection = None
         rate, cum_share = self._rate(view, speed)
         if p.wiper_period_s is None:
             since = _OFF_FILL_S
@@ -512,25 +514,50 @@ class WindscreenModel(NoiseModel):
         first = self._cycle_start + math.floor((t0 - 2.0 * stroke - self._cycle_start) / period) * period
         return [s for s in np.arange(first, t1, period) if s + 2.0 * stroke > t0]
 
+    def _swept(self, t0: float, t1: float) -> np.ndarray:
+        """The blade angles ``[lo, hi]`` swept during ``(t0, t1]``, (k, 2) radians."""
+        p = self.params
+        arc = math.radians(p.wiper_arc_deg)
+        spans = [swept_interval(t0 - s, t1 - s, p.wiper_stroke_s, arc) for s in self._cycles(t0, t1)]
+        return np.array([s for s in spans if s is not None], np.float64).reshape(-1, 2)
+
     def _wipe(self, t0: float, t1: float) -> None:
         """Remove the drops the blade passed over during ``(t0, t1]``."""
         p = self.params
         if len(self.drops) == 0:
             return
-        arc = math.radians(p.wiper_arc_deg)
-        px, py = p.wiper_pivot_m
-        angle = np.arctan2(self.drops.gy - py, self.drops.gx - px)
-        reach = np.hypot(self.drops.gy - py, self.drops.gx - px) <= p.wiper_length_m
+        angle = np.arctan2(self.drops.gy - p.wiper_pivot_m[1], self.drops.gx - p.wiper_pivot_m[0])
+        reach = np.hypot(self.drops.gy - p.wiper_pivot_m[1], self.drops.gx - p.wiper_pivot_m[0]) <= p.wiper_length_m
         gone = np.zeros(len(self.drops), bool)
-        for start in self._cycles(t0, t1):
-            swept = swept_interval(t0 - start, t1 - start, p.wiper_stroke_s, arc)
-            if swept is not None:
-                gone |= reach & (angle >= swept[0]) & (angle <= swept[1])
+        for lo, hi in self._swept(t0, t1):
+            gone |= reach & (angle >= lo) & (angle <= hi)
         self.drops.keep(~gone)
 
-    def _draw_blade(self, lin: np.ndarray, view: GlassView, now: float, covered: np.ndarray) -> None:
+    def _advance(self, view: GlassView, speed: float, dt: float, t0: float, t1: float) -> None:
+        """One frame of the drops running along the glass (those that may, see
+        :func:`slide_velocity`) and of the wiper over ``(t0, t1]``: what
+        :meth:`DropField.move` then :meth:`_wipe` do, in one compiled pass."""
+        p = self.params
+        if len(self.drops) == 0:
+            return
+        velocity = slide_velocity(self.drops.radius, speed, p) if self._may_slide(speed) else None
+        swept = self._swept(t0, t1)
+        if velocity is None and len(swept) == 0:
+            return
+        if velocity is None:
+            velocity = np.zeros(len(self.drops))
+        if self._projection is None:
+            self._projection = view.projection()
+        d, size = self.drops, (view.config.width, view.config.height)
+        wiper = (float(p.wiper_pivot_m[0]), float(p.wiper_pivot_m[1]), float(p.wiper_length_m))
+        alive = advance_drops(d.gx, d.gy, velocity, d.u, d.v, float(dt), self._projection, size, wiper, swept)
+        d.keep(alive)
+
+    def _draw_blade(
+        self, lin: np.ndarray, view: GlassView, now: float, covered: np.ndarray, touched: np.ndarray
+    ) -> None:
         """The blade, defocused, where it crosses the view at ``now`` (marked in ``covered``
-        where it hides at least :data:`COVERED` of a pixel)."""
+        where it hides at least :data:`COVERED` of a pixel, in ``touched`` where it hides any)."""
         p = self.params
         self.blade_visible = False
         starts = [s for s in self._cycles(now - 1e-9, now) if s <= now]
@@ -557,4 +584,5 @@ class WindscreenModel(NoiseModel):
         c = cov[r][..., None]
         lin[r] = lin[r] * (1.0 - c) + c * np.float32(p.blade_radiance)
         covered[r] |= cov[r] >= COVERED
+        touched[r] |= cov[r] > 0.0
         self.blade_visible = True
