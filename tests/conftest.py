@@ -40,7 +40,7 @@ SLOW = (
 #: short tests fill in around the long ones instead of a long one starting last and
 #: running alone at the end.
 LONGEST_FIRST = (
-    "tests/soak/test_soak.py::test_rss_flat_over_160_resets_after_warm_up",  # 140-180 s (200 resets)
+    "tests/soak/test_soak.py::test_rss_flat_over_100_resets_after_warm_up",  # 80-100 s (120 resets)
     "tests/detector/test_detector.py::test_pretrained_model_meets_clean_frame_targets_in_every_scenario",  # 55-65 s
     "tests/detector/test_detector.py::",  # 50 s with test_lut.py (one group)
     "examples/test_gate.py::",  # 40 s (trains the worked example)

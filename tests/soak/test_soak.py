@@ -32,15 +32,17 @@ _RESETS = (
 import json, simroad
 from simroad.envs import RoadCamEnv
 env = RoadCamEnv(scenario="winding", noise="rain+shadow", severity=0.7)
-for seed in range(40):  # warm-up: caches, lazily imported modules, allocator pools
+for seed in range(20):  # warm-up: caches, lazily imported modules, allocator pools
     env.reset(seed=seed)
 # Each world has its own size (road length, raster tiles), so RSS after one reset
-# swings by a few per cent: compare the peak of the first and the last 40 resets.
+# swings by a few per cent: compare the peak of the first and the last 25 resets. (A
+# world kept alive by a reference cycle grew RSS by ~37 MB per reset until the cyclic
+# collector ran: 1.1 GB after 20 resets, 3.2 GB after 80.)
 rss = []
-for seed in range(40, 200):
+for seed in range(20, 120):
     env.reset(seed=seed)
     rss.append(rss_mb())
-print(json.dumps({"before": max(rss[:40]), "after": max(rss[-40:])}))
+print(json.dumps({"before": max(rss[:25]), "after": max(rss[-25:])}))
 """
 )
 
@@ -87,7 +89,7 @@ def _run(code: str, *args: str) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def test_rss_flat_over_160_resets_after_warm_up():
+def test_rss_flat_over_100_resets_after_warm_up():
     r = _run(_RESETS)
     assert r["after"] <= 1.05 * r["before"], r
 
