@@ -70,16 +70,18 @@ from simroad.filters._common import (
     to_planes,
 )
 from simroad.filters._kernels import (
-    centre_channels,
-    edge_pairs,
-    float32_over,
     linear_halves,
-    lit_diff,
-    lit_outside,
     masked_medians,
     median,
     median_at_most,
     quantize_take,
+)
+from simroad.filters._relight_kernels import (
+    centre_channels,
+    edge_pairs,
+    float32_over,
+    lit_diff,
+    lit_outside,
     shadow_update,
     sky_ratios,
 )
@@ -149,7 +151,7 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._kernels.lit_diff`:
+    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
     exceeds 0.15); the smaller box overrides where it holds enough.
     """

@@ -13,7 +13,6 @@ from simroad.filters._kernels import (
     MONOTONE_POWERS,
     apply_row_tables,
     area4_floor,
-    edge_pairs,
     level_codes,
     masked_medians,
     median,
@@ -21,6 +20,7 @@ from simroad.filters._kernels import (
     percentile_below,
     quantize_take,
 )
+from simroad.filters._relight_kernels import edge_pairs
 from simroad.filters.haze import _dehaze_rows, _row_floor
 
 
@@ -319,7 +319,7 @@ def test_linear_halves_is_the_area_halving_of_the_linear_plane():
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("k", [3, 5, 9, 32, 93])
 def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
-    from simroad.filters._kernels import lit_diff
+    from simroad.filters._relight_kernels import lit_diff
 
     rng = np.random.default_rng(k)
     for h, w in ((54, 160), (5, 40), (30, 7)):

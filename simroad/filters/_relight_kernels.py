@@ -1,0 +1,231 @@
+"""Compiled per-pixel loops of the shadow relighting (:mod:`simroad.filters.relight`), numba ``cache=True``.
+
+As in :mod:`simroad.filters._kernels` (the loops the other filters share): each loop
+reproduces, operation by operation, what the numpy/OpenCV code it replaces computes, so
+the filter's output is bit-identical; :mod:`tests.filters.test_kernels` holds them to
+their references.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from simroad.filters._kernels import _quantize_row
+
+__all__ = [
+    "centre_channels",
+    "edge_pairs",
+    "float32_over",
+    "lit_diff",
+    "lit_outside",
+    "shadow_update",
+    "sky_ratios",
+]
+
+
+@njit(cache=True, nogil=True)
+def sky_ratios(
+    p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, table: np.ndarray, sat: Any, red: Any, dark: Any, out: np.ndarray
+) -> int:  # fmt: skip
+    """The linear ``B / R`` of the pixels whose channels (each through ``table``, as
+    :func:`quantize_take`) stay below ``sat``, with red above ``red`` and blue above
+    ``dark`` (float32 thresholds), in row-major order into ``out``; returns their number."""
+    top = np.float32(table.size - 1)
+    h, w = p0.shape
+    i0, i1, i2 = np.empty(w, np.uint32), np.empty(w, np.uint32), np.empty(w, np.uint32)
+    n = 0
+    for i in range(h):
+        _quantize_row(p0[i], top, i0)
+        _quantize_row(p1[i], top, i1)
+        _quantize_row(p2[i], top, i2)
+        for j in range(w):
+            r, g, b = table[i0[j]], table[i1[j]], table[i2[j]]
+            if (max(max(r, g), b) < sat) & (r > red) & (b > dark):
+                out[n] = b / r
+                n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def edge_pairs(logs: np.ndarray, valid: np.ndarray, shift: int, drop: Any, bluer: Any) -> np.ndarray:
+    """Log differences (dark - lit) of the shadow-like pixel pairs ``shift`` apart, as
+    an (N, 3) array in the order the numpy reference lists them: horizontal pairs then
+    vertical ones, each as ``b - a`` then ``a - b``, pixels in row-major order. A pair is
+    shadow-like when both pixels are valid and the difference darkens every channel, red
+    below ``-drop`` and most, blue least, ``b - r > bluer * -r`` (float32 thresholds).
+    The red difference is tested first: most pairs stop there."""
+    h, w = valid.shape
+    out = np.empty((4 * h * w, 3), logs.dtype)  # only the pages written are ever touched
+    n = 0
+    zero = np.float32(0.0)
+    for dy, dx in ((0, shift), (shift, 0)):
+        for sign in (np.float32(1.0), np.float32(-1.0)):
+            for i in range(h - dy):
+                for j in range(w - dx):
+                    r = (logs[0, i + dy, j + dx] - logs[0, i, j]) * sign
+                    if not (r < -drop) or not (valid[i, j] and valid[i + dy, j + dx]):
+                        continue
+                    g = (logs[1, i + dy, j + dx] - logs[1, i, j]) * sign
+                    b = (logs[2, i + dy, j + dx] - logs[2, i, j]) * sign
+                    if (r < g) and (g < b) and (b < zero) and (b - r > bluer * -r):
+                        out[n, 0], out[n, 1], out[n, 2] = r, g, b
+                        n += 1
+    return out[:n]
+
+
+@njit(cache=True, nogil=True)
+def _reflect101(p: int, n: int) -> int:
+    """OpenCV's ``borderInterpolate(p, n, BORDER_REFLECT_101)``."""
+    if n == 1:
+        return 0
+    while p < 0 or p >= n:
+        p = -p if p < 0 else 2 * n - 2 - p
+    return p
+
+
+@njit(cache=True, nogil=True)
+def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
+    """The row sums of OpenCV's box filter (``RowSum``, float64) over a bordered row ``ext``
+    (w + k - 1, 4): three or five terms summed left to right, else a running sum."""
+    w = row.shape[0]
+    if k == 3 or k == 5:
+        for i in range(w):
+            for c in range(4):
+                s = ext[i, c] + ext[i + 1, c]
+                for m in range(2, k):
+                    s += ext[i + m, c]
+                row[i, c] = s
+        return
+    for c in range(4):
+        s = 0.0
+        for m in range(k):
+            s += ext[m, c]
+        row[0, c] = s
+    s0, s1, s2, s3 = row[0, 0], row[0, 1], row[0, 2], row[0, 3]
+    for i in range(w - 1):
+        s0 += ext[i + k, 0] - ext[i, 0]
+        s1 += ext[i + k, 1] - ext[i, 1]
+        s2 += ext[i + k, 2] - ext[i, 2]
+        s3 += ext[i + k, 3] - ext[i, 3]
+        row[i + 1, 0], row[i + 1, 1], row[i + 1, 2], row[i + 1, 3] = s0, s1, s2, s3
+
+
+@njit(cache=True, nogil=True)
+def _row_sums(lit: np.ndarray, weighted: np.ndarray, k: int) -> np.ndarray:
+    """OpenCV's row sums (float64) of the four-channel image ``[lit, weighted]`` for a box of
+    side ``k``, each source row once (a reflected row is the same row): (h, 4 w)."""
+    h, w = lit.shape
+    a = k // 2
+    xs = np.empty(w + k - 1, np.uint64)  # unsigned: the gathers need no wrap-around test
+    for x in range(w + k - 1):
+        xs[x] = _reflect101(x - a, w)
+    sums = np.empty((h, w, 4), np.float64)
+    ext = np.empty((w + k - 1, 4), np.float64)
+    for y in range(h):
+        for x in range(w + k - 1):
+            xx = xs[x]
+            ext[x, 0], ext[x, 1] = lit[y, xx], weighted[0, y, xx]
+            ext[x, 2], ext[x, 3] = weighted[1, y, xx], weighted[2, y, xx]
+        _box_row(ext, k, sums[y])
+    return sums.reshape(h, 4 * w)
+
+
+@njit(cache=True, nogil=True)
+def _column_step(sums: np.ndarray, t: int, k: int, total: np.ndarray, vals: np.ndarray) -> bool:
+    """Step ``t`` of OpenCV's running column sums over the row sums (h, 4 w): the box of
+    output row ``t - (k - 1)`` into ``vals`` (sum times ``1 / k**2``, rounded to its dtype);
+    False while the first ``k - 1`` rows only fill the window."""
+    h = sums.shape[0]
+    a = k // 2
+    row = sums[_reflect101(t - a, h)]
+    if t < k - 1:
+        for j in range(row.size):
+            total[j] += row[j]
+        return False
+    old = sums[_reflect101(t - (k - 1) - a, h)]  # the row that leaves the window
+    scale = 1.0 / (k * k)
+    for j in range(row.size):
+        s0 = total[j] + row[j]
+        vals[j] = s0 * scale
+        total[j] = s0 - old[j]
+    return True
+
+
+@njit(cache=True, nogil=True)
+def lit_diff(
+    logs: np.ndarray, lit: np.ndarray, weighted: np.ndarray, frame: np.ndarray, sizes: tuple[int, int],
+    thr: Any, eps: Any, diff: np.ndarray,
+) -> None:  # fmt: skip
+    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first
+    box of ``sizes`` where its weight exceeds ``thr``, overridden by the second box's where
+    its does, else ``frame`` (3,). A box's mean is ``box(weighted[c]) / max(box(lit), eps)``.
+
+    ``box`` is ``cv2.blur(x, (k, k))`` (``BORDER_REFLECT_101``) of the four-channel image
+    ``[lit, weighted]`` (``weighted = logs * lit``, both in the reference's dtype), bit for
+    bit: OpenCV's row sums (three or five terms left to right, else running) and running
+    column sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold
+    it to ``cv2.blur``); the comparison, the division and the difference are in that dtype.
+    """
+    h, w = lit.shape
+    mean = np.empty((3, h, w), diff.dtype)
+    for c in range(3):
+        mean[c] = frame[c]
+    vals = np.empty(4 * w, diff.dtype)
+    for n, k in enumerate(sizes):
+        sums = _row_sums(lit, weighted, k)
+        total = np.zeros(4 * w, np.float64)
+        for t in range(h + k - 1):
+            if not _column_step(sums, t, k, total, vals):
+                continue
+            y = t - (k - 1)
+            for i in range(w):
+                weight = vals[4 * i]
+                if weight > thr:
+                    den = max(weight, eps)
+                    for c in range(3):
+                        mean[c, y, i] = vals[4 * i + 1 + c] / den
+                if n == len(sizes) - 1:
+                    for c in range(3):
+                        diff[c, y, i] = logs[c, y, i] - mean[c, y, i]
+
+
+@njit(cache=True, nogil=True)
+def centre_channels(x: np.ndarray, out: np.ndarray) -> None:
+    """``out = x - x.mean(axis=0)`` for a (3, H, W) array: numpy's ``(x0 + x1) + x2`` divided by 3."""
+    a, b, c = x[0].reshape(-1), x[1].reshape(-1), x[2].reshape(-1)
+    oa, ob, oc = out[0].reshape(-1), out[1].reshape(-1), out[2].reshape(-1)
+    three = x.dtype.type(3.0)
+    for i in range(a.size):
+        m = ((a[i] + b[i]) + c[i]) / three
+        oa[i], ob[i], oc[i] = a[i] - m, b[i] - m, c[i] - m
+
+
+@njit(cache=True, nogil=True)
+def float32_over(x: np.ndarray, den: Any, out: np.ndarray) -> None:
+    """``out = x.astype(float32) / den`` (``den`` float32)."""
+    src, dst = x.reshape(-1), out.reshape(-1)
+    for i in range(src.size):
+        dst[i] = np.float32(src[i]) / den
+
+
+@njit(cache=True, nogil=True)
+def shadow_update(
+    alpha: np.ndarray, chroma: np.ndarray, valid: np.ndarray, min_alpha: Any, min_chroma: Any, shadow: np.ndarray
+) -> None:  # fmt: skip
+    """``shadow = uint8((alpha > min_alpha) & (chroma > min_chroma) & valid)`` (float32 thresholds)."""
+    h, w = valid.shape
+    for i in range(h):
+        for j in range(w):
+            shadow[i, j] = (alpha[i, j] > min_alpha) & (chroma[i, j] > min_chroma) & valid[i, j]
+
+
+@njit(cache=True, nogil=True)
+def lit_outside(lit_ok: np.ndarray, grown: np.ndarray, out: np.ndarray) -> None:
+    """``out = lit_ok * (1.0 - grown)`` in float64 (``lit_ok`` float32, ``grown`` uint8), as numpy promotes it."""
+    h, w = grown.shape
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = np.float64(lit_ok[i, j]) * (1.0 - np.float64(grown[i, j]))
