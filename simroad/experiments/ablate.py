@@ -133,7 +133,8 @@ def run_ablation(
     """Run every cell of ``grid`` not yet in ``out/results.jsonl``; return all records.
 
     ``cell_fn`` runs one cell (default :func:`run_cell`); it must be a picklable
-    top-level function. The output directory is locked for the whole run
+    top-level function of an importable module (with ``workers > 1`` the workers
+    start from a fork server and import it; not a notebook's function). The output directory is locked for the whole run
     (:class:`~simroad.experiments.outlock.OutputLock`): a second sweep on it raises
     :class:`DirectoryLocked` (a :class:`SimroadError`) naming the holder's PID.
     """
