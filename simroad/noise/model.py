@@ -273,17 +273,18 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
         plan = [(stage, m) for stage, m in plan if stage not in _SURFACE_STAGES]
     enc_prev = as_uint8(image)
     encoded = False  # whether enc_prev is linear_to_srgb(state.lin) (not the input)
+    several = False  # whether the pending update covers more than one stage
     for k, (stage, m) in enumerate(plan):
         getattr(m, stage)(state)
         if k + 1 < len(plan) and plan[k + 1][1] is m:
-            state.touched = None
+            state.touched, several = None, True
             continue  # same model again: one mask update covers both stages
-        if state.touched is not None and encoded:  # a few pixels changed: encode those
+        if state.touched is not None and encoded and not several:  # a few pixels changed: encode those
             enc, changed = encode_touched(state.lin, state.touched, enc_prev, MASK_THRESHOLD)
         else:
             enc = linear_to_srgb(state.lin)
             changed = change_mask(enc_prev, enc)
-        state.touched, encoded = None, True
+        state.touched, encoded, several = None, True, False
         if state.unmasked is not None:  # the sky clearing for the sun is not noise
             changed &= ~state.unmasked
             state.unmasked = None

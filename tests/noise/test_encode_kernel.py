@@ -7,7 +7,7 @@ import pytest
 
 from simroad.noise import NoiseContext, WindscreenParams, make_weather
 from simroad.noise._encode_kernel import encode_tables, encode_touched
-from simroad.noise.radiometry import change_mask, linear_to_srgb
+from simroad.noise.radiometry import change_mask, linear_to_srgb, srgb_to_linear
 
 
 def _reference(values: np.ndarray) -> np.ndarray:
@@ -94,3 +94,51 @@ def test_the_windscreen_stage_gives_the_frames_and_masks_of_a_full_encode(noise,
     for (a, ma), (b, mb) in zip(sparse, full, strict=True):
         np.testing.assert_array_equal(a, b)
         assert ma.keys() == mb.keys() and all(np.array_equal(ma[k], mb[k]) for k in ma)
+
+
+def test_a_model_with_two_stages_is_encoded_whole_even_if_its_last_stage_says_touched(rng):
+    """``touched`` speaks for one stage: a model whose earlier stage changed other
+    pixels gets the full encode (its mask and the frame keep both changes)."""
+    from dataclasses import dataclass
+
+    from simroad.noise.model import NoiseModel, Params, run_models
+
+    @dataclass(frozen=True)
+    class _On(Params):
+        @classmethod
+        def from_severity(cls, severity: float) -> _On:
+            return cls()
+
+        @property
+        def is_identity(self) -> bool:
+            return False
+
+    class _First(NoiseModel):  # one stage, before the other: the frame is encoded after it
+        name, params_type, stages = "first", _On, ("material",)
+
+        def material(self, state) -> None:
+            state.lin[150:, :] *= np.float32(0.9)
+
+    class _TwoStages(NoiseModel):
+        name, params_type, stages = "two", _On, ("atmosphere", "windscreen")
+
+        def atmosphere(self, state) -> None:
+            state.lin[:60] *= np.float32(0.3)  # the sky rows, darker
+
+        def windscreen(self, state) -> None:
+            state.lin[100:110, 100:110] = 1.0
+            touched = np.zeros(state.shape, bool)
+            touched[100:110, 100:110] = True
+            state.touched = touched  # true of this stage only
+
+    image = rng.integers(40, 220, (180, 320, 3)).astype(np.uint8)
+    models = [_First(_On()), _TwoStages(_On())]
+    for m in models:
+        m.reset(0)
+    out, masks = run_models(models, image)
+    lin = srgb_to_linear(image)
+    lin[150:] *= np.float32(0.9)
+    lin[:60] *= np.float32(0.3)
+    lin[100:110, 100:110] = 1.0
+    np.testing.assert_array_equal(out, linear_to_srgb(lin))
+    assert masks["two"][:60].mean() > 0.9 and masks["two"][100:110, 100:110].all()
