@@ -169,7 +169,9 @@ class DropField:
 
     def move(self, view: GlassView, moving: np.ndarray, dgy: np.ndarray) -> None:
         """Slide the ``moving`` drops (bool mask) by ``dgy`` m up the glass; drops whose
-        centre leaves the image are gone (a running drop keeps its sprite)."""
+        centre leaves the image are gone (a running drop keeps its sprite). The numpy
+        reference the compiled :func:`~simroad.noise._drops_kernel.advance_drops` is
+        tested against (the model runs that)."""
         if not moving.any():
             return
         self.gy[moving] += dgy[moving]

@@ -501,7 +501,7 @@ class WindscreenModel(NoiseModel):
             since = float(rng.random()) * float(p.wiper_period_s)
             self._cycle_start = -since
         self._arrive(view, speed, since, rng)
-        self._wipe(-since, 0.0)
+        self._wipe(view, -since, 0.0)
 
     # --------------------------------------------------------------- wiper
     def _cycles(self, t0: float, t1: float) -> list[float]:
@@ -521,26 +521,19 @@ class WindscreenModel(NoiseModel):
         spans = [swept_interval(t0 - s, t1 - s, p.wiper_stroke_s, arc) for s in self._cycles(t0, t1)]
         return np.array([s for s in spans if s is not None], np.float64).reshape(-1, 2)
 
-    def _wipe(self, t0: float, t1: float) -> None:
-        """Remove the drops the blade passed over during ``(t0, t1]``."""
-        p = self.params
-        if len(self.drops) == 0:
-            return
-        angle = np.arctan2(self.drops.gy - p.wiper_pivot_m[1], self.drops.gx - p.wiper_pivot_m[0])
-        reach = np.hypot(self.drops.gy - p.wiper_pivot_m[1], self.drops.gx - p.wiper_pivot_m[0]) <= p.wiper_length_m
-        gone = np.zeros(len(self.drops), bool)
-        for lo, hi in self._swept(t0, t1):
-            gone |= reach & (angle >= lo) & (angle <= hi)
-        self.drops.keep(~gone)
+    def _wipe(self, view: GlassView, t0: float, t1: float) -> None:
+        """Remove the drops the blade passed over during ``(t0, t1]`` (nothing moves)."""
+        self._advance(view, 0.0, 0.0, t0, t1, slide=False)
 
-    def _advance(self, view: GlassView, speed: float, dt: float, t0: float, t1: float) -> None:
+    def _advance(self, view: GlassView, speed: float, dt: float, t0: float, t1: float, *, slide: bool = True) -> None:
         """One frame of the drops running along the glass (those that may, see
-        :func:`slide_velocity`) and of the wiper over ``(t0, t1]``: what
-        :meth:`DropField.move` then :meth:`_wipe` do, in one compiled pass."""
+        :func:`slide_velocity`; none unless ``slide``) and of the wiper over ``(t0, t1]``,
+        in one compiled pass (:func:`~simroad.noise._drops_kernel.advance_drops`;
+        :meth:`DropField.move` is its numpy reference for the motion)."""
         p = self.params
         if len(self.drops) == 0:
             return
-        velocity = slide_velocity(self.drops.radius, speed, p) if self._may_slide(speed) else None
+        velocity = slide_velocity(self.drops.radius, speed, p) if slide and self._may_slide(speed) else None
         swept = self._swept(t0, t1)
         if velocity is None and len(swept) == 0:
             return
