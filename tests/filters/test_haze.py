@@ -64,6 +64,24 @@ def test_a_clear_scene_is_returned_unchanged():
     np.testing.assert_array_equal(out, clear)
 
 
+def test_a_pale_thing_across_a_few_near_rows_is_not_a_veil():
+    """Three rows below the middle lifted across the whole width (a pale car's flank
+    across the road, a crest between pale verges): their floor rises 0.4 above the
+    road's, which a running maximum of the floor would spread as a veil over every row
+    above. A veil grows with distance, so the monotone fit of the floor must rise over
+    the near half of the rows: a bump this short does not lift it, and the frame is
+    returned as it is. The same scene under a real veil is still corrected."""
+    clean = _scene()
+    clean[62:65] = (0.45, 0.45, 0.45)
+    frame = _encode(clean).astype(np.float32)
+    kept = remove_haze(frame, tolerance=0.045)
+    assert not kept.mask.any()
+    np.testing.assert_array_equal(kept.image, frame)
+    t = _transmission()
+    hazy = _encode(clean * t + clean[0, 0] * (1 - t)).astype(np.float32)
+    assert remove_haze(hazy, tolerance=0.045).mask[HORIZON + 4 : H // 2].all()
+
+
 def test_under_a_blue_sky_the_frame_is_left_alone():
     """A blue sky means clear air: the rise of a far row's floor is not haze then."""
     clean = _scene()
