@@ -343,7 +343,7 @@ def _add_detector(sub: Any) -> None:
     p = sub.add_parser(
         "filter-effect",
         help="does each filter earn its place? FNR/FPR with and without it on its weather",
-        description="Render held-out worlds of every scenario under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels.",
+        description="Render held-out worlds of every scenario under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels, and the difference of FNR + FPR (with - without, points) with its 95 % interval from a bootstrap of the episodes in pairs.",
     )
     p.add_argument(
         "--severity",

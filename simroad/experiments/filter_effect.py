@@ -9,17 +9,27 @@ ground pixels (``valid``): the sky is never road, and an overcast sky would othe
 dominate the FPR. :func:`filter_effect_table` scores the issue's protocol -- each
 filter on its matching noise, and all filters on every noise -- rendering each noise
 once.
+
+Each row also holds the paired difference of FNR + FPR, with minus without, and its
+95 % interval (:func:`~simroad.experiments.stats.paired_pooled_difference`): the
+frames of one episode (a scenario in one world) are correlated, so the bootstrap
+resamples episodes, the same ones for both detectors, and pools their pixel counts
+again. ``resolved`` says the interval lies below 0.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable, Sequence
+
+import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, collect_frames
+from simroad.experiments.stats import COUNT_KEYS, paired_pooled_difference
 from simroad.filters import FILTER_REGISTRY, FILTERS, check_filters
-from simroad.metrics.mask import MaskScore
+from simroad.metrics.mask import MaskScore, rates_from_counts
 
 __all__ = ["FILTER_NOISE", "filter_effect", "filter_effect_table", "format_filter_effect"]
 
@@ -47,12 +57,26 @@ def _render(noise: str, seeds: tuple[int, ...], frames: int, severity: float, ev
     return cache[key]
 
 
-def _score(detector, frames: FrameSet) -> dict[str, float]:
-    score = MaskScore()
-    for image, gt, valid in zip(frames.images, frames.masks, frames.valid):
-        score.update(detector.predict(image), gt, valid=valid)
-    pooled = score.pooled()
-    return {"fnr": pooled["fnr"], "fpr": pooled["fpr"]}
+def _episodes(frames: FrameSet) -> list[tuple[str, int]]:
+    """The episode (scenario, seed) of each frame, from ``frames.source``."""
+    if len(frames.source) != len(frames.images):
+        raise SimroadError(
+            f"frames.source: expected one (scenario, seed, step) per frame to tell the episodes apart, "
+            f"got {len(frames.source)} for {len(frames.images)} frames."
+        )
+    return [(scenario, int(seed)) for scenario, seed, _ in frames.source]
+
+
+def _score(detector, frames: FrameSet) -> tuple[dict[str, float], np.ndarray]:
+    """Pooled ground FNR and FPR of ``detector`` on ``frames``, and the pixel counts
+    per episode (rows in order of first appearance, columns ``COUNT_KEYS``)."""
+    scores: dict[tuple[str, int], MaskScore] = {}
+    for episode, image, gt, valid in zip(_episodes(frames), frames.images, frames.masks, frames.valid):
+        scores.setdefault(episode, MaskScore()).update(detector.predict(image), gt, valid=valid)
+    counts = np.array([[getattr(s, k) for k in COUNT_KEYS] for s in scores.values()], dtype=np.int64)
+    counts = counts.reshape(-1, len(COUNT_KEYS))
+    pooled = rates_from_counts(*(int(c) for c in counts.sum(axis=0)))
+    return {"fnr": pooled["fnr"], "fpr": pooled["fpr"]}, counts
 
 
 def _check_protocol(
@@ -104,9 +128,14 @@ def filter_effect(
     Returns
     -------
     dict
-        ``noise``, ``filters`` (tuple), ``frames`` (total), ``without`` and ``with``
-        (each ``{"fnr", "fpr"}``, pooled over the ground pixels, fractions) and
-        ``better`` -- True when FNR + FPR is lower with the filters.
+        ``noise``, ``filters`` (tuple), ``frames`` (total), ``episodes`` (scenarios x
+        seeds), ``without`` and ``with`` (each ``{"fnr", "fpr"}``, pooled over the
+        ground pixels, fractions); ``diff``, ``diff_lo``, ``diff_hi``: FNR + FPR with
+        minus without, as a fraction (-0.05: five points lower with the filters), and
+        its 95 % interval from a bootstrap of the episodes in pairs (NaN with one
+        episode; :func:`~simroad.experiments.stats.paired_pooled_difference`);
+        ``better`` -- True when FNR + FPR is lower with the filters -- and
+        ``resolved`` -- True when the whole interval is below 0.
     """
     worlds, frames, severity, every = _check_protocol(seeds, frames, severity, every)
     names = check_filters(filters)
@@ -114,12 +143,14 @@ def filter_effect(
         raise SimroadError("filters: expected at least one filter to compare against none, got none.")
     factory = detector_factory or _default_factory
     frame_set = _render(noise, worlds, frames, severity, every, {} if cache is None else cache)
-    without = _score(factory(()), frame_set)
-    with_ = _score(factory(names), frame_set)
+    without, counts_off = _score(factory(()), frame_set)
+    with_, counts_on = _score(factory(names), frame_set)
+    diff, lo, hi = paired_pooled_difference(counts_on, counts_off)
     return {
-        "noise": noise, "filters": names, "frames": len(frame_set.images),
-        "without": without, "with": with_,
+        "noise": noise, "filters": names, "frames": len(frame_set.images), "episodes": len(counts_on),
+        "without": without, "with": with_, "diff": diff, "diff_lo": lo, "diff_hi": hi,
         "better": with_["fnr"] + with_["fpr"] < without["fnr"] + without["fpr"],
+        "resolved": bool(hi < 0.0),  # NaN (one episode) compares False
     }  # fmt: skip
 
 
@@ -153,16 +184,33 @@ def filter_effect_table(
     ]  # fmt: skip
 
 
+def _format_diff(diff: float, lo: float, hi: float) -> str:
+    """``diff [lo, hi]`` in points; ``diff (n=1)`` without an interval."""
+    if not math.isfinite(diff):
+        return "–"
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return f"{100 * diff:+.2f} (n=1)"
+    return f"{100 * diff:+.2f} [{100 * lo:+.2f}, {100 * hi:+.2f}]"
+
+
 def format_filter_effect(rows: Sequence[dict]) -> str:
-    """A plain-text table of :func:`filter_effect_table` rows, rates in percent."""
+    """A plain-text table of :func:`filter_effect_table` rows, rates in percent.
+
+    ``Δ [95 % CI]`` is FNR + FPR with minus without in points, with its interval
+    (``(n=1)``: one episode, no interval); ``better`` is ``yes`` when the difference
+    is below 0 and ``NO`` otherwise, ``resolved`` ``yes`` when its whole interval is.
+    """
     head = (
-        f"{'noise':<7} {'filters':<22} {'frames':>6} {'FNR off':>8} {'FPR off':>8} {'FNR on':>8} {'FPR on':>8}  better"
+        f"{'noise':<7} {'filters':<22} {'frames':>6} {'FNR off':>8} {'FPR off':>8} {'FNR on':>8} {'FPR on':>8}  "
+        f"{'Δ [95 % CI]':<24} better  resolved"
     )
     lines = [head]
     for r in rows:
         a, b = r["without"], r["with"]
+        diff = _format_diff(r["diff"], r["diff_lo"], r["diff_hi"])
         lines.append(
             f"{r['noise']:<7} {'+'.join(r['filters']):<22} {r['frames']:>6} {100 * a['fnr']:>8.2f} "
-            f"{100 * a['fpr']:>8.2f} {100 * b['fnr']:>8.2f} {100 * b['fpr']:>8.2f}  {'yes' if r['better'] else 'NO'}"
+            f"{100 * a['fpr']:>8.2f} {100 * b['fnr']:>8.2f} {100 * b['fpr']:>8.2f}  {diff:<24} "
+            f"{'yes' if r['better'] else 'NO':<6}  {'yes' if r['resolved'] else 'no'}"
         )
     return "\n".join(lines)

@@ -28,6 +28,15 @@ seeds, not another formula, resolve a difference.
 **Paired comparisons** (:func:`paired_differences`): two settings driven in the same
 world with the same seed (same scenario, noise, severity, seed and detector) are a
 pair; the interval of the mean paired difference bootstraps the pairs.
+
+**Pooled rates in pairs** (:func:`paired_pooled_difference`): FNR + FPR pooled over
+the pixels of many episodes (a ratio of sums, not a mean of per-episode rates), one
+setting minus another scored on the same frames. The frames of one episode are
+correlated, so the unit of the bootstrap is the episode (the world): each resample
+draws episodes with replacement, the same ones for both settings, and pools their
+pixel counts again. Same percentile bootstrap, resamples and seed as
+:func:`mean_interval`; no episode gives NaN, one episode no interval, identical
+counts in every pair ``lo = hi = 0``.
 """
 
 from __future__ import annotations
@@ -35,7 +44,7 @@ from __future__ import annotations
 import inspect
 import math
 from collections import defaultdict
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -45,13 +54,16 @@ from simroad._validation import SimroadError, check_in_range, check_int_in_range
 __all__ = [
     "ALL_FILTERS",
     "CONFIDENCE",
+    "COUNT_KEYS",
     "N_RESAMPLES",
     "PAIRED_METRICS",
     "SEED",
     "detectors",
     "filter_order",
+    "fnr_plus_fpr",
     "mean_interval",
     "paired_differences",
+    "paired_pooled_difference",
     "proportion_interval",
 ]
 
@@ -67,6 +79,8 @@ PAIRED_METRICS = ("driving_score", "offroad_fraction", "fnr", "fpr")
 ALL_FILTERS = "shadow+rain_snow+light"
 #: A pair's world: records that match on these keys (and the comparison's group) are paired.
 _PAIR_KEY = ("scenario", "seed")
+#: Confusion counts in the order of the columns of per-episode count arrays.
+COUNT_KEYS = ("tp", "fp", "fn", "tn")
 
 
 def _finite(values: Iterable[Any]) -> np.ndarray:
@@ -80,6 +94,36 @@ def _generator_keyword() -> str:
     from scipy import stats
 
     return "rng" if "rng" in inspect.signature(stats.bootstrap).parameters else "random_state"
+
+
+def _check_bootstrap(confidence: float, n_resamples: int, seed: int) -> None:
+    check_in_range("confidence", confidence, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
+    check_int_in_range("n_resamples", n_resamples, 1, 10**7)
+    check_int_in_range("seed", seed, 0, 2**63 - 1)
+
+
+def _percentile_bootstrap(
+    sample: np.ndarray,
+    statistic: Callable[..., np.ndarray],
+    *,
+    confidence: float,
+    n_resamples: int,
+    seed: int,
+) -> tuple[float, float]:
+    """Percentile-bootstrap interval of ``statistic`` over one sample (the module's
+    convention); ``statistic(resampled, axis=-1)`` is vectorized over leading axes."""
+    from scipy import stats
+
+    res = stats.bootstrap(
+        (sample,),
+        statistic,
+        n_resamples=n_resamples,
+        confidence_level=confidence,
+        method="percentile",
+        vectorized=True,
+        **{_generator_keyword(): np.random.default_rng(seed)},
+    )
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
 def mean_interval(
@@ -104,9 +148,7 @@ def mean_interval(
         See the module docstring for no value (all NaN), one value (low and high
         NaN) and equal values (low = high = mean).
     """
-    check_in_range("confidence", confidence, 0.0, 1.0, low_inclusive=False, high_inclusive=False)
-    check_int_in_range("n_resamples", n_resamples, 1, 10**7)
-    check_int_in_range("seed", seed, 0, 2**63 - 1)
+    _check_bootstrap(confidence, n_resamples, seed)
     v = np.sort(_finite(values))
     if len(v) == 0:
         return math.nan, math.nan, math.nan
@@ -115,18 +157,7 @@ def mean_interval(
         return mean, math.nan, math.nan
     if v[0] == v[-1]:
         return mean, mean, mean
-    from scipy import stats
-
-    res = stats.bootstrap(
-        (v,),
-        np.mean,
-        n_resamples=n_resamples,
-        confidence_level=confidence,
-        method="percentile",
-        vectorized=True,
-        **{_generator_keyword(): np.random.default_rng(seed)},
-    )
-    lo, hi = float(res.confidence_interval.low), float(res.confidence_interval.high)
+    lo, hi = _percentile_bootstrap(v, np.mean, confidence=confidence, n_resamples=n_resamples, seed=seed)
     # the resampled means lie in [min, max]; clip only the last-bit rounding of the mean
     return mean, max(lo, float(v[0])), min(hi, float(v[-1]))
 
@@ -158,6 +189,109 @@ def proportion_interval(flags: Iterable[Any], *, confidence: float = CONFIDENCE)
     k, n = int(v.sum()), len(v)
     ci = stats.binomtest(k, n).proportion_ci(confidence_level=confidence, method="exact")
     return k / n, float(ci.low), float(ci.high)
+
+
+def fnr_plus_fpr(counts: Any) -> np.ndarray:
+    """FNR + FPR (paper eqs. 32-33) of confusion counts.
+
+    Parameters
+    ----------
+    counts : array_like, (..., 4)
+        Counts in the order of :data:`COUNT_KEYS` (``tp, fp, fn, tn``), e.g. summed
+        over the frames of some episodes.
+
+    Returns
+    -------
+    ndarray, (...)
+        ``FN / (TP + FN) + FP / (FP + TN)`` as a fraction in [0, 2]; NaN where a
+        denominator is 0.
+    """
+    tp, fp, fn, tn = np.moveaxis(np.asarray(counts, dtype=float), -1, 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return fn / (tp + fn) + fp / (fp + tn)
+
+
+def _episode_counts(name: str, counts: Any) -> np.ndarray:
+    """``counts`` as an int64 array (episodes, 4), or a SimroadError naming ``name``."""
+    try:
+        a = np.asarray(counts, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise SimroadError(f"{name}: expected per-episode counts (episodes x {', '.join(COUNT_KEYS)}): {exc}") from None
+    if a.size == 0:
+        a = a.reshape(0, len(COUNT_KEYS))
+    if a.ndim != 2 or a.shape[1] != len(COUNT_KEYS):
+        raise SimroadError(
+            f"{name}: expected per-episode counts of shape (episodes, 4) in the order "
+            f"{', '.join(COUNT_KEYS)}, got shape {a.shape}."
+        )
+    bad = ~(np.isfinite(a) & (a >= 0) & (a == np.round(a)))
+    if bad.any():
+        raise SimroadError(f"{name}: expected non-negative integer pixel counts, got {float(a[bad][0])!r}.")
+    return a.astype(np.int64)
+
+
+def paired_pooled_difference(
+    setting: Any,
+    baseline: Any,
+    *,
+    confidence: float = CONFIDENCE,
+    n_resamples: int = N_RESAMPLES,
+    seed: int = SEED,
+) -> tuple[float, float, float]:
+    """FNR + FPR pooled over episodes, ``setting - baseline``, with the interval of a
+    bootstrap that resamples the episodes in pairs.
+
+    Row ``i`` of ``setting`` and of ``baseline`` are the pixel counts of the same
+    episode (the same frames) scored two ways. The difference is that of the pooled
+    rates: each setting's counts are summed over the episodes, then
+    :func:`fnr_plus_fpr` is taken (a ratio of sums). Each bootstrap resample draws
+    episodes with replacement, the same ones for both settings (the pairing), and
+    pools their counts again; the interval is the percentile interval of the
+    resampled differences (:func:`mean_interval`'s convention, resamples and seed).
+    The episodes are sorted by their counts first, so the interval does not depend
+    on the order they were given in.
+
+    Parameters
+    ----------
+    setting, baseline : array_like, (episodes, 4)
+        Non-negative integer pixel counts per episode, columns :data:`COUNT_KEYS`.
+    confidence : float
+        Two-sided confidence level in (0, 1).
+    n_resamples : int
+        Bootstrap resamples.
+    seed : int
+        Seed of ``numpy.random.default_rng`` drawing the resamples.
+
+    Returns
+    -------
+    diff, low, high : float
+        Fractions (a difference of -0.05 is 5 points lower with ``setting``). No
+        episode: all NaN; one episode, or a pooled rate undefined (no road or no
+        non-road pixel): low and high NaN; every episode's counts equal in both:
+        ``0, 0, 0``.
+    """
+    _check_bootstrap(confidence, n_resamples, seed)
+    a, b = _episode_counts("setting", setting), _episode_counts("baseline", baseline)
+    if len(a) != len(b):
+        raise SimroadError(f"setting, baseline: expected the same episodes in both, got {len(a)} and {len(b)} rows.")
+    if len(a) == 0:
+        return math.nan, math.nan, math.nan
+    diff = float(fnr_plus_fpr(a.sum(axis=0)) - fnr_plus_fpr(b.sum(axis=0)))
+    if len(a) == 1 or not math.isfinite(diff):
+        return diff, math.nan, math.nan
+    if np.array_equal(a, b):
+        return diff, diff, diff
+    order = np.lexsort(np.hstack([a, b]).T[::-1])
+    a, b = a[order], b[order]
+
+    def resampled(episodes: np.ndarray, axis: int = -1) -> np.ndarray:
+        # episodes: (..., n) indices drawn with replacement (scipy's paired=True does the same)
+        return fnr_plus_fpr(a[episodes].sum(axis=-2)) - fnr_plus_fpr(b[episodes].sum(axis=-2))
+
+    lo, hi = _percentile_bootstrap(
+        np.arange(len(a)), resampled, confidence=confidence, n_resamples=n_resamples, seed=seed
+    )
+    return diff, lo, hi
 
 
 def detectors(records: Sequence[dict]) -> list[str]:

@@ -1,5 +1,6 @@
 """Report statistics: bootstrap and Clopper-Pearson intervals against independent
-references and cases worked by hand; pairs matched to the right episodes."""
+references and cases worked by hand; pairs matched to the right episodes; pooled rates
+bootstrapped by episode in pairs."""
 
 from __future__ import annotations
 
@@ -15,10 +16,13 @@ from simroad.experiments.stats import (
     ALL_FILTERS,
     N_RESAMPLES,
     SEED,
+    fnr_plus_fpr,
     mean_interval,
     paired_differences,
+    paired_pooled_difference,
     proportion_interval,
 )
+from simroad.metrics.mask import rates_from_counts
 
 
 def test_mean_interval_is_scipys_percentile_bootstrap_of_the_sorted_values():
@@ -179,3 +183,73 @@ def test_one_pair_has_no_interval():
     rows = paired_differences([_rec("a", 0, score=0.5), _rec("a", 0, ALL_FILTERS, score=0.8)])
     assert rows[0]["pairs"] == 1 and rows[0]["driving_score_diff"] == pytest.approx(0.3)
     assert math.isnan(rows[0]["driving_score_diff_lo"]) and math.isnan(rows[0]["driving_score_diff_hi"])
+
+
+# -- pooled FNR + FPR, paired, resampling episodes ---------------------------------------
+
+
+def _counts(seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-episode (tp, fp, fn, tn) of a setting and its baseline: episodes of unequal
+    size and difficulty; the setting misses 30 % fewer road pixels, calls a few more road."""
+    gen = np.random.default_rng(seed)
+    road, other = gen.integers(200, 2000, n), gen.integers(200, 2000, n)
+    miss, false_road = gen.uniform(0.05, 0.6, n), gen.uniform(0.01, 0.1, n)
+    fn_b, fp_b = gen.binomial(road, miss), gen.binomial(other, false_road)
+    fn_a, fp_a = gen.binomial(road, 0.7 * miss), gen.binomial(other, 1.2 * false_road)
+    return (np.stack([road - fn_a, fp_a, fn_a, other - fp_a], 1), np.stack([road - fn_b, fp_b, fn_b, other - fp_b], 1))
+
+
+def test_fnr_plus_fpr_is_the_metrics_own():
+    for row in _counts(1, 5)[0]:
+        want = rates_from_counts(*map(int, row))
+        assert fnr_plus_fpr(row) == want["fnr"] + want["fpr"]
+    assert math.isnan(fnr_plus_fpr([0, 3, 0, 7]))  # no road pixel: FNR undefined
+
+
+def test_pooled_difference_agrees_with_a_brute_force_resample_of_episodes():
+    a, b = _counts(2, 9)
+    diff, lo, hi = paired_pooled_difference(a, b)
+    assert diff == fnr_plus_fpr(a.sum(0)) - fnr_plus_fpr(b.sum(0))  # ratio of sums
+    idx = np.random.default_rng(7).integers(0, len(a), size=(200_000, len(a)))  # the same episodes for both
+    diffs = fnr_plus_fpr(a[idx].sum(1)) - fnr_plus_fpr(b[idx].sum(1))
+    want_lo, want_hi = np.percentile(diffs, [2.5, 97.5])
+    assert lo == pytest.approx(want_lo, abs=0.002) and hi == pytest.approx(want_hi, abs=0.002)
+    assert lo < diff < hi
+    # resampling a and b independently would ignore the pairing and give a wider interval
+    other = np.random.default_rng(8).integers(0, len(a), size=idx.shape)
+    unpaired = np.percentile(fnr_plus_fpr(a[idx].sum(1)) - fnr_plus_fpr(b[other].sum(1)), [2.5, 97.5])
+    assert unpaired[1] - unpaired[0] > 1.5 * (hi - lo)
+
+
+def test_pooled_difference_does_not_depend_on_the_order_of_the_episodes():
+    a, b = _counts(3, 7)
+    order = np.random.default_rng(4).permutation(7)
+    assert paired_pooled_difference(a[order], b[order]) == paired_pooled_difference(a, b)
+
+
+def test_pooled_difference_degenerate_cases():
+    a, b = _counts(5, 3)
+    assert all(math.isnan(x) for x in paired_pooled_difference([], []))
+    diff, lo, hi = paired_pooled_difference(a[:1], b[:1])  # one episode: no interval
+    assert diff == pytest.approx(fnr_plus_fpr(a[0]) - fnr_plus_fpr(b[0]), abs=1e-15)
+    assert math.isnan(lo) and math.isnan(hi)
+    assert paired_pooled_difference(a, a) == (0.0, 0.0, 0.0)
+    no_road = [[0, 1, 0, 9], [0, 2, 0, 8]]  # FNR undefined however the episodes are drawn
+    assert all(math.isnan(x) for x in paired_pooled_difference(no_road, no_road)[1:])
+
+
+@pytest.mark.parametrize(
+    ("setting", "baseline", "match"),
+    [
+        ([[1, 2, 3]], [[1, 2, 3, 4]], r"setting: .*shape \(episodes, 4\)"),
+        ([[1, 2, 3, 4]], [[1, 2, 3, -4]], "baseline: .*non-negative integer"),
+        ([[1, 2, 3.5, 4]], [[1, 2, 3, 4]], "setting: .*integer pixel counts, got 3.5"),
+        ([[1, 2, 3, 4]], [[1, 2, 3, 4]] * 2, "same episodes"),
+        ([["a", 2, 3, 4]], [[1, 2, 3, 4]], "setting"),
+    ],
+)
+def test_pooled_difference_bad_counts_name_the_parameter(setting, baseline, match):
+    with pytest.raises(SimroadError, match=match):
+        paired_pooled_difference(setting, baseline)
+    with pytest.raises(SimroadError, match="confidence"):
+        paired_pooled_difference([[1, 2, 3, 4]], [[1, 2, 3, 4]], confidence=0.0)
