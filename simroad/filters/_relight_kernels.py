@@ -18,8 +18,9 @@ from simroad.filters._kernels import _quantize_row
 __all__ = [
     "centre_channels",
     "edge_pairs",
+    "fill_where",
     "float32_over",
-    "lit_diff",
+    "lit_boxes",
     "lit_outside",
     "shadow_update",
     "sky_ratios",
@@ -89,48 +90,53 @@ def _reflect101(p: int, n: int) -> int:
 @njit(cache=True, nogil=True)
 def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
     """The row sums of OpenCV's box filter (``RowSum``, float64) over a bordered row ``ext``
-    (w + k - 1, 4): three or five terms summed left to right, else a running sum."""
-    w = row.shape[0]
+    (4, w + k - 1) into ``row`` (4, w): three or five terms summed left to right, else a
+    running sum (the four channels' chains interleaved)."""
+    w = row.shape[1]
     if k == 3 or k == 5:
-        for i in range(w):
-            for c in range(4):
-                s = ext[i, c] + ext[i + 1, c]
+        for c in range(4):
+            for i in range(w):
+                s = ext[c, i] + ext[c, i + 1]
                 for m in range(2, k):
-                    s += ext[i + m, c]
-                row[i, c] = s
+                    s += ext[c, i + m]
+                row[c, i] = s
         return
     for c in range(4):
         s = 0.0
         for m in range(k):
-            s += ext[m, c]
-        row[0, c] = s
-    s0, s1, s2, s3 = row[0, 0], row[0, 1], row[0, 2], row[0, 3]
+            s += ext[c, m]
+        row[c, 0] = s
+    s0, s1, s2, s3 = row[0, 0], row[1, 0], row[2, 0], row[3, 0]
     for i in range(w - 1):
-        s0 += ext[i + k, 0] - ext[i, 0]
-        s1 += ext[i + k, 1] - ext[i, 1]
-        s2 += ext[i + k, 2] - ext[i, 2]
-        s3 += ext[i + k, 3] - ext[i, 3]
-        row[i + 1, 0], row[i + 1, 1], row[i + 1, 2], row[i + 1, 3] = s0, s1, s2, s3
+        s0 += ext[0, i + k] - ext[0, i]
+        s1 += ext[1, i + k] - ext[1, i]
+        s2 += ext[2, i + k] - ext[2, i]
+        s3 += ext[3, i + k] - ext[3, i]
+        row[0, i + 1], row[1, i + 1], row[2, i + 1], row[3, i + 1] = s0, s1, s2, s3
 
 
 @njit(cache=True, nogil=True)
-def _row_sums(lit: np.ndarray, weighted: np.ndarray, k: int) -> np.ndarray:
-    """OpenCV's row sums (float64) of the four-channel image ``[lit, weighted]`` for a box of
-    side ``k``, each source row once (a reflected row is the same row): (h, 4 w)."""
+def _row_sums(logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], sums: np.ndarray) -> None:
+    """OpenCV's row sums (float64) of the four-channel image ``[lit, logs * lit]`` (the product
+    in ``lit``'s dtype) for boxes of sides ``sizes`` into ``sums`` (2, h, 4, w). Each row is
+    bordered once, for the larger box; the smaller one's bordered row lies within it."""
     h, w = lit.shape
-    a = k // 2
-    xs = np.empty(w + k - 1, np.uint64)  # unsigned: the gathers need no wrap-around test
-    for x in range(w + k - 1):
-        xs[x] = _reflect101(x - a, w)
-    sums = np.empty((h, w, 4), np.float64)
-    ext = np.empty((w + k - 1, 4), np.float64)
+    big = max(sizes[0], sizes[1])
+    n = w + big - 1
+    xs = np.empty(n, np.int64)
+    for x in range(n):
+        xs[x] = _reflect101(x - big // 2, w)
+    ext = np.empty((4, n), np.float64)
     for y in range(h):
-        for x in range(w + k - 1):
+        for x in range(n):
             xx = xs[x]
-            ext[x, 0], ext[x, 1] = lit[y, xx], weighted[0, y, xx]
-            ext[x, 2], ext[x, 3] = weighted[1, y, xx], weighted[2, y, xx]
-        _box_row(ext, k, sums[y])
-    return sums.reshape(h, 4 * w)
+            weight = lit[y, xx]
+            ext[0, x] = weight
+            ext[1, x], ext[2, x], ext[3, x] = logs[0, y, xx] * weight, logs[1, y, xx] * weight, logs[2, y, xx] * weight
+        for b in range(2):
+            k = sizes[b]
+            off = big // 2 - k // 2
+            _box_row(ext[:, off : off + w + k - 1], k, sums[b, y])
 
 
 @njit(cache=True, nogil=True)
@@ -155,41 +161,93 @@ def _column_step(sums: np.ndarray, t: int, k: int, total: np.ndarray, vals: np.n
 
 
 @njit(cache=True, nogil=True)
-def lit_diff(
-    logs: np.ndarray, lit: np.ndarray, weighted: np.ndarray, frame: np.ndarray, sizes: tuple[int, int],
-    thr: Any, eps: Any, diff: np.ndarray,
-) -> None:  # fmt: skip
-    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first
-    box of ``sizes`` where its weight exceeds ``thr``, overridden by the second box's where
-    its does, else ``frame`` (3,). A box's mean is ``box(weighted[c]) / max(box(lit), eps)``.
+def _first_box(
+    sums: np.ndarray, k: int, thr: Any, eps: Any, num: np.ndarray, den: np.ndarray, rest: np.ndarray
+) -> None:
+    """The box of side ``k`` over the row sums ``sums`` (h, 4, w): ``num[c] = box(w_c)``,
+    ``den = max(box(lit), eps)`` (both in ``num``'s dtype) and ``rest`` where ``box(lit)`` is
+    at most ``thr`` (1) or not (0)."""
+    h, w = rest.shape
+    flat = sums.reshape(h, 4 * w)
+    total = np.zeros(4 * w, np.float64)
+    vals = np.empty((4, w), num.dtype)
+    for t in range(h + k - 1):
+        if not _column_step(flat, t, k, total, vals.reshape(-1)):
+            continue
+        y = t - (k - 1)
+        for i in range(w):
+            den[y, i] = max(vals[0, i], eps)
+            rest[y, i] = not vals[0, i] > thr
+        for c in range(3):
+            num[c, y] = vals[1 + c]
+
+
+@njit(cache=True, nogil=True)
+def _second_box(
+    sums: np.ndarray, k: int, thr: Any, eps: Any, num: np.ndarray, den: np.ndarray, rest: np.ndarray
+) -> int:
+    """Where ``rest`` is set, the box of side ``k`` over the row sums ``sums`` (h, 4, w): its
+    mean ``box(w_c) / max(box(lit), eps)`` into ``num`` and 1 into ``den`` where ``box(lit)``
+    exceeds ``thr`` (``rest`` cleared), else 0 and 1 (``rest`` becomes 2). Returns how many
+    pixels neither box holds enough for."""
+    h, w = rest.shape
+    flat = sums.reshape(h, 4 * w)
+    total = np.zeros(4 * w, np.float64)
+    vals = np.empty((4, w), num.dtype)
+    one = den.dtype.type(1.0)
+    n = 0
+    for t in range(h + k - 1):
+        if not _column_step(flat, t, k, total, vals.reshape(-1)):
+            continue
+        y = t - (k - 1)
+        for i in range(w):
+            if not rest[y, i]:
+                continue
+            weight = vals[0, i]
+            big = weight > thr
+            d = max(weight, eps)
+            for c in range(3):
+                num[c, y, i] = vals[1 + c, i] / d if big else 0.0
+            den[y, i] = one
+            rest[y, i] = 0 if big else 2
+            n += not big
+    return n
+
+
+@njit(cache=True, nogil=True)
+def lit_boxes(
+    logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, num: np.ndarray,
+    den: np.ndarray, rest: np.ndarray,
+) -> int:  # fmt: skip
+    """Each pixel's lit reference as the fraction ``num / den`` (the caller divides, as numpy
+    does it vectorised): the box mean of the first box of ``sizes`` where its weight exceeds
+    ``thr``, else the second box's where its does (there ``den`` is 1), else 0 / 1 and
+    ``rest`` is 2 (returned: how many; the caller puts the frame's mean there). A box's mean
+    is ``box(logs[c] * lit) / max(box(lit), eps)``, its weight ``box(lit)``.
 
     ``box`` is ``cv2.blur(x, (k, k))`` (``BORDER_REFLECT_101``) of the four-channel image
-    ``[lit, weighted]`` (``weighted = logs * lit``, both in the reference's dtype), bit for
-    bit: OpenCV's row sums (three or five terms left to right, else running) and running
-    column sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold
-    it to ``cv2.blur``); the comparison, the division and the difference are in that dtype.
+    ``[lit, logs * lit]`` (the product in ``lit``'s dtype, ``num``'s), bit for bit:
+    OpenCV's row sums (three or five terms left to right, else running) and running column
+    sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold it to
+    ``cv2.blur``); the comparison and the division are in that dtype. The second box's means
+    are computed only where the first box holds too few.
     """
     h, w = lit.shape
-    mean = np.empty((3, h, w), diff.dtype)
-    for c in range(3):
-        mean[c] = frame[c]
-    vals = np.empty(4 * w, diff.dtype)
-    for n, k in enumerate(sizes):
-        sums = _row_sums(lit, weighted, k)
-        total = np.zeros(4 * w, np.float64)
-        for t in range(h + k - 1):
-            if not _column_step(sums, t, k, total, vals):
-                continue
-            y = t - (k - 1)
-            for i in range(w):
-                weight = vals[4 * i]
-                if weight > thr:
-                    den = max(weight, eps)
-                    for c in range(3):
-                        mean[c, y, i] = vals[4 * i + 1 + c] / den
-                if n == len(sizes) - 1:
-                    for c in range(3):
-                        diff[c, y, i] = logs[c, y, i] - mean[c, y, i]
+    sums = np.empty((2, h, 4, w), np.float64)
+    _row_sums(logs, lit, sizes, sums)
+    _first_box(sums[0], sizes[0], thr, eps, num, den, rest)
+    return _second_box(sums[1], sizes[1], thr, eps, num, den, rest)
+
+
+@njit(cache=True, nogil=True)
+def fill_where(x: np.ndarray, value: np.ndarray, where: np.ndarray, code: int) -> None:
+    """``x[c][where == code] = value[c]`` for a (3, h, w) ``x``."""
+    h, w = where.shape
+    for i in range(h):
+        for j in range(w):
+            if where[i, j] == code:
+                for c in range(3):
+                    x[c, i, j] = value[c]
 
 
 @njit(cache=True, nogil=True)

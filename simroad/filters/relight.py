@@ -79,8 +79,9 @@ from simroad.filters._kernels import (
 from simroad.filters._relight_kernels import (
     centre_channels,
     edge_pairs,
+    fill_where,
     float32_over,
-    lit_diff,
+    lit_boxes,
     lit_outside,
     shadow_update,
     sky_ratios,
@@ -151,17 +152,20 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_diff`:
+    Both boxes in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_boxes`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
-    exceeds 0.15); the smaller box overrides where it holds enough.
+    exceeds 0.15), in ``lit``'s dtype; the smaller box's divisions by numpy (vectorised), the
+    frame's mean only when some pixel needs it.
     """
-    weighted = logs * lit
-    frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
-    kind = frame.dtype.type
-    diff = np.empty(logs.shape, frame.dtype)
-    lit_diff(logs, lit.astype(frame.dtype, copy=False), weighted, frame, (3 * window, window), kind(0.15),
-             kind(1e-6), diff)  # fmt: skip
-    return diff
+    kind = lit.dtype.type
+    mean = np.empty(logs.shape, lit.dtype)
+    den = np.empty(lit.shape, lit.dtype)
+    rest = np.empty(lit.shape, np.uint8)
+    if lit_boxes(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), mean, den, rest):
+        frame = (logs * lit).sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+        fill_where(mean, frame, rest, 2)
+    np.divide(mean, den, out=mean)
+    return np.subtract(logs, mean, out=mean)
 
 
 def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:

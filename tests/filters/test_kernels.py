@@ -255,7 +255,13 @@ def test_lit_diff_is_the_per_channel_computation():
 
     rng = np.random.default_rng(13)
     logs = np.log(rng.uniform(2e-3, 1.0, (3, 54, 160))).astype(np.float32)
-    for lit in ((rng.random((54, 160)) < 0.7).astype(np.float32), (rng.random((54, 160)) < 0.3) * np.float64(1)):
+    sparse = np.zeros((54, 160))
+    sparse[10:20, 30:45] = 1.0  # one lit patch: pixels far from it fall back to the frame's mean
+    for lit in (
+        (rng.random((54, 160)) < 0.7).astype(np.float32),
+        (rng.random((54, 160)) < 0.3) * np.float64(1),
+        sparse,
+    ):
         expect = np.repeat((logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0), 54, 1)
         expect = np.repeat(expect, 160, 2)
         for size in (93, 31):
@@ -317,25 +323,28 @@ def test_linear_halves_is_the_area_halving_of_the_linear_plane():
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-@pytest.mark.parametrize("k", [3, 5, 9, 32, 93])
-def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
-    from simroad.filters._relight_kernels import lit_diff
+@pytest.mark.parametrize("k", [3, 5, 9, 32, 31])
+def test_lit_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
+    from simroad.filters._relight_kernels import lit_boxes
 
     rng = np.random.default_rng(k)
     for h, w in ((54, 160), (5, 40), (30, 7)):
         logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
         logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
-        lit = (rng.random((h, w)) < 0.6).astype(dtype)
-        weighted = logs * lit
-        frame = np.array([0.5, -0.25, 0.125], dtype)
-        mean = np.repeat(np.repeat(frame[:, None, None], h, 1), w, 2)
-        sums = cv2.blur(np.dstack([lit, *weighted]), (k, k))
-        ok = sums[..., 0] > dtype(0.15)
-        for c in range(3):
-            np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
-        got = np.empty((3, h, w), dtype)
-        lit_diff(logs, lit, weighted, frame, (k,), dtype(0.15), dtype(1e-6), got)
-        np.testing.assert_array_equal(got, logs - mean)
+        for density in (0.6, 0.15, 0.05):  # across the columns, from none: each box holds enough, or neither
+            lit = (rng.random((h, w)) < density * np.linspace(0.0, 2.0, w)).astype(dtype)
+            mean = np.zeros((3, h, w), dtype)
+            held = np.zeros((h, w), bool)
+            for size in (3 * k, k):  # the smaller box overrides the larger where it holds enough
+                sums = cv2.blur(np.dstack([lit, *(logs * lit)]), (size, size))
+                ok = sums[..., 0] > dtype(0.15)
+                held |= ok
+                for c in range(3):
+                    np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
+            num, den, rest = np.empty((3, h, w), dtype), np.empty((h, w), dtype), np.empty((h, w), np.uint8)
+            assert lit_boxes(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), num, den, rest) == (~held).sum()
+            np.testing.assert_array_equal(rest == 2, ~held)
+            np.testing.assert_array_equal(num / den, mean)  # 0 / 1 where neither holds enough
 
 
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
