@@ -16,12 +16,12 @@ from numba import njit
 from simroad.filters._kernels import _quantize_row
 
 __all__ = [
-    "centre_channels",
+    "alpha_chroma",
     "edge_pairs",
     "fill_where",
-    "float32_over",
     "lit_boxes",
     "lit_outside",
+    "project",
     "shadow_update",
     "sky_ratios",
 ]
@@ -251,22 +251,32 @@ def fill_where(x: np.ndarray, value: np.ndarray, where: np.ndarray, code: int) -
 
 
 @njit(cache=True, nogil=True)
-def centre_channels(x: np.ndarray, out: np.ndarray) -> None:
-    """``out = x - x.mean(axis=0)`` for a (3, H, W) array: numpy's ``(x0 + x1) + x2`` divided by 3."""
+def project(x: np.ndarray, d: np.ndarray, den: Any, out: np.ndarray) -> None:
+    """``out = float32((d[0] * x[0] + d[1] * x[1]) + d[2] * x[2]) / den``: the coordinate of each
+    pixel of ``x`` (3, H, W) along ``d`` (3,), products and sums in their common dtype, ``den``
+    float32: ``np.tensordot(d, x, 1).astype(np.float32) / den`` where the BLAS sums the three
+    products in this order (OpenBLAS's gemv here: the tests compare)."""
     a, b, c = x[0].reshape(-1), x[1].reshape(-1), x[2].reshape(-1)
-    oa, ob, oc = out[0].reshape(-1), out[1].reshape(-1), out[2].reshape(-1)
-    three = x.dtype.type(3.0)
+    dst = out.reshape(-1)
     for i in range(a.size):
-        m = ((a[i] + b[i]) + c[i]) / three
-        oa[i], ob[i], oc[i] = a[i] - m, b[i] - m, c[i] - m
+        dst[i] = np.float32((d[0] * a[i] + d[1] * b[i]) + d[2] * c[i]) / den
 
 
 @njit(cache=True, nogil=True)
-def float32_over(x: np.ndarray, den: Any, out: np.ndarray) -> None:
-    """``out = x.astype(float32) / den`` (``den`` float32)."""
-    src, dst = x.reshape(-1), out.reshape(-1)
-    for i in range(src.size):
-        dst[i] = np.float32(src[i]) / den
+def alpha_chroma(
+    diff: np.ndarray, d: np.ndarray, dd: Any, dc: np.ndarray, dcc: Any, alpha: np.ndarray, chroma: np.ndarray
+) -> None:  # fmt: skip
+    """Two projections (as :func:`project`) in one pass over ``diff`` (3, H, W): ``alpha`` of
+    ``diff`` on ``d`` over ``dd``; ``chroma`` of ``diff - diff.mean(axis=0)`` (numpy's
+    ``(x0 + x1) + x2`` over 3, in ``diff``'s dtype) on ``dc`` over ``dcc``."""
+    a, b, c = diff[0].reshape(-1), diff[1].reshape(-1), diff[2].reshape(-1)
+    da, ch = alpha.reshape(-1), chroma.reshape(-1)
+    three = diff.dtype.type(3.0)
+    for i in range(a.size):
+        x, y, z = a[i], b[i], c[i]
+        da[i] = np.float32((d[0] * x + d[1] * y) + d[2] * z) / dd
+        m = ((x + y) + z) / three
+        ch[i] = np.float32((dc[0] * (x - m) + dc[1] * (y - m)) + dc[2] * (z - m)) / dcc
 
 
 @njit(cache=True, nogil=True)

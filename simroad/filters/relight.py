@@ -77,12 +77,12 @@ from simroad.filters._kernels import (
     quantize_take,
 )
 from simroad.filters._relight_kernels import (
-    centre_channels,
+    alpha_chroma,
     edge_pairs,
     fill_where,
-    float32_over,
     lit_boxes,
     lit_outside,
+    project,
     shadow_update,
     sky_ratios,
 )
@@ -168,12 +168,20 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     return np.subtract(logs, mean, out=mean)
 
 
-def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)``: the coordinate of each
-    pixel of ``x`` (3, h, w) along ``d`` (3,) float32, (h, w) float32."""
-    out = np.empty(x.shape[1:], np.float32)
-    float32_over(np.tensordot(d, x, 1), np.float32(d @ d), out)
-    return out
+def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's shadow fraction ``α``, the coordinate of ``diff`` (3, h, w) along ``d``, and
+    its chromaticity's move along ``d``'s, blurred 3x3 and 5x5 (float32 (h, w) each).
+
+    The projections ``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)`` of ``diff``
+    on ``d`` and of ``diff - diff.mean(axis=0)`` on ``d - d.mean()`` in one compiled pass
+    (:func:`~simroad.filters._relight_kernels.alpha_chroma`: the three products summed in
+    the order OpenBLAS's gemv sums them, bit for bit here).
+    """
+    dc = d - d.mean()
+    alpha = np.empty(diff.shape[1:], np.float32)
+    chroma = np.empty(diff.shape[1:], np.float32)
+    alpha_chroma(diff, d, np.float32(d @ d), dc, np.float32(dc @ dc), alpha, chroma)
+    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5))
 
 
 def _coverage(
@@ -185,16 +193,14 @@ def _coverage(
     lit_ok = valid.astype(np.float32)
     # First guess of the lit pixels: within half a shadow step of the brightest (along
     # d) of a wide box around them, so a shadow wider than the box is not its own reference.
-    bright = (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
+    bright = np.empty(valid.shape, np.float32)
+    project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     top = cv2.dilate(bright, np.ones((3 * window, 3 * window), np.uint8))
     lit = lit_ok * (bright >= top - _FIRST_LIT)
     shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
         diff = _lit_diff(logs, lit, window)
-        alpha = cv2.blur(_projection(d, diff), (3, 3))
-        centred = np.empty_like(diff)
-        centre_channels(diff, centred)  # diff - diff.mean(axis=0)
-        chroma = cv2.blur(_projection(d - d.mean(), centred), (5, 5))
+        alpha, chroma = _alpha_chroma(diff, d)
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
         lit = np.empty(valid.shape, np.float64)
         lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)

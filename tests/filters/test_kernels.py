@@ -347,6 +347,36 @@ def test_lit_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
             np.testing.assert_array_equal(num / den, mean)  # 0 / 1 where neither holds enough
 
 
+@pytest.mark.parametrize("dtypes", [(np.float32, np.float32), (np.float32, np.float64), (np.float64, np.float64)])
+def test_projections_are_the_three_products_summed_in_order(dtypes):
+    from simroad.filters._relight_kernels import alpha_chroma, project
+
+    rng = np.random.default_rng(18)
+    kind_d, kind_x = dtypes
+    x = rng.normal(-0.3, 0.5, (3, 54, 160)).astype(kind_x)
+    x[:, 0, :5] = 0.0
+    d = np.array([-0.9, -0.7, -0.45], kind_d) * kind_d(rng.uniform(0.5, 1.5))
+    dc = d - d.mean()
+    dd, dcc = np.float32(d @ d), np.float32(dc @ dc)
+
+    def reference(v, y, den):
+        return ((v[0] * y[0] + v[1] * y[1]) + v[2] * y[2]).astype(np.float32) / den
+
+    alpha, chroma = np.empty((54, 160), np.float32), np.empty((54, 160), np.float32)
+    alpha_chroma(x, d, dd, dc, dcc, alpha, chroma)
+    np.testing.assert_array_equal(alpha, reference(d, x, dd))
+    np.testing.assert_array_equal(chroma, reference(dc, x - x.mean(axis=0), dcc))
+    out = np.empty((54, 160), np.float32)
+    project(x, d, -dd, out)
+    np.testing.assert_array_equal(out, -reference(d, x, dd))  # x / -y is -(x / y)
+    # np.tensordot (BLAS) sums the same products in the same order (bit for bit with this
+    # machine's OpenBLAS); another BLAS may round differently, so within a tolerance here
+    tensordot = np.tensordot(d, x, 1).astype(np.float32) / dd
+    np.testing.assert_allclose(alpha, tensordot, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(chroma, np.tensordot(dc, x - x.mean(axis=0), 1).astype(np.float32) / dcc,
+                               rtol=1e-6, atol=1e-6)  # fmt: skip
+
+
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
 def test_pow_sparing_zeros_is_cv2_pow(power):
     from simroad.filters._common import pow_sparing_zeros
