@@ -8,12 +8,13 @@ their references.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numba import njit
 
-from simroad.filters._kernels import _quantize_row
+from simroad.filters._kernels import _quantize_row, _select, median
 
 __all__ = [
     "alpha_chroma",
@@ -24,6 +25,7 @@ __all__ = [
     "project",
     "shadow_update",
     "sky_ratios",
+    "strong_median",
 ]
 
 
@@ -75,6 +77,46 @@ def edge_pairs(logs: np.ndarray, valid: np.ndarray, shift: int, drop: Any, bluer
                         out[n, 0], out[n, 1], out[n, 2] = r, g, b
                         n += 1
     return out[:n]
+
+
+@njit(cache=True, nogil=True)
+def _percentile(x: np.ndarray, q: float) -> Any:
+    """``np.percentile(x, q)`` (linear) of a non-empty float32 array without NaN, bit for bit:
+    the order statistics around ``(n - 1) * (q / 100)`` (``x`` is reordered) and numpy's
+    ``_lerp`` of them in float32 (``b - (b - a) * (1 - t)`` from ``t = 0.5`` on)."""
+    n = x.size
+    v = (n - 1) * (q / 100.0)
+    lo = n - 1 if v >= n - 1 else int(math.floor(v))
+    hi = min(lo + 1, n - 1)
+    b = _select(x, hi)
+    a = x[:hi].max() if lo < hi else b  # after the selection, everything left of hi is <= b
+    t = v - lo
+    step = b - a
+    if t >= 0.5:
+        return b - step * np.float32(1.0 - t)
+    return a + step * np.float32(t)
+
+
+@njit(cache=True, nogil=True)
+def strong_median(pairs: np.ndarray, q: float) -> np.ndarray:
+    """``np.median(pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], q)], axis=0)`` of a non-empty
+    float32 (N, 3) array without NaN, bit for bit (:func:`_percentile`, then
+    :func:`~simroad.filters._kernels.median` of each column of the rows kept)."""
+    n = pairs.shape[0]
+    drop = np.empty(n, pairs.dtype)
+    for i in range(n):
+        drop[i] = -pairs[i, 0]
+    thr = _percentile(drop.copy(), q)
+    keep = np.empty((3, n), pairs.dtype)
+    m = 0
+    for i in range(n):
+        if drop[i] >= thr:
+            keep[0, m], keep[1, m], keep[2, m] = pairs[i, 0], pairs[i, 1], pairs[i, 2]
+            m += 1
+    out = np.empty(3, pairs.dtype)
+    for c in range(3):
+        out[c] = median(keep[c, :m])
+    return out
 
 
 @njit(cache=True, nogil=True)

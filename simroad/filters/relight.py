@@ -72,7 +72,6 @@ from simroad.filters._common import (
 from simroad.filters._kernels import (
     linear_halves,
     masked_medians,
-    median,
     median_at_most,
     quantize_take,
 )
@@ -85,6 +84,7 @@ from simroad.filters._relight_kernels import (
     project,
     shadow_update,
     sky_ratios,
+    strong_median,
 )
 
 __all__ = ["relight_shadows"]
@@ -236,8 +236,7 @@ def _relight_planes(
     pairs = _edge_pairs(logs, valid, min_drop)
     if len(pairs) < min_pairs:
         return unchanged
-    strong = pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], 75)]
-    d0 = np.array([median(strong[:, c]) for c in range(3)], strong.dtype)  # np.median(strong, axis=0)
+    d0 = strong_median(pairs, 75.0)  # the median of the strongest quarter of the pairs (by red)
     alpha, shadow, d = _coverage(logs, valid, d0, window)
     region = cv2.dilate(shadow, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _GROW + 1, 2 * _GROW + 1)))
     alpha = np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32)

@@ -377,6 +377,24 @@ def test_projections_are_the_three_products_summed_in_order(dtypes):
                                rtol=1e-6, atol=1e-6)  # fmt: skip
 
 
+def test_strong_median_is_the_median_of_the_pairs_over_the_percentile():
+    from simroad.filters._relight_kernels import _percentile, strong_median
+
+    rng = np.random.default_rng(19)
+    for k in range(400):
+        n = int(rng.integers(1, 300))
+        pairs = -rng.random((n, 3), dtype=np.float32) * np.float32(rng.uniform(0.5, 3.0))
+        if k % 3 == 1:
+            pairs = (np.round(pairs * 7) / 7).astype(np.float32)  # ties
+        if k % 3 == 2:  # neighbours an ulp or a few apart: the interpolation's rounding shows
+            pairs[:, 0] = np.float32(-1.5) - np.arange(n, dtype=np.float32) * np.spacing(np.float32(1.5)) * (k % 4)
+        drop = -pairs[:, 0]
+        for q in (75.0, 50.0, 90.0, 0.0, 100.0):
+            assert _percentile(drop.copy(), q) == np.percentile(drop, q)
+        expect = np.median(pairs[drop >= np.percentile(drop, 75)], axis=0)
+        np.testing.assert_array_equal(strong_median(pairs, 75.0), expect)
+
+
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
 def test_pow_sparing_zeros_is_cv2_pow(power):
     from simroad.filters._common import pow_sparing_zeros
