@@ -19,9 +19,9 @@ from simroad.filters._kernels import _quantize_row, _select, median
 __all__ = [
     "alpha_chroma",
     "edge_pairs",
-    "fill_where",
-    "lit_boxes",
+    "lit_diff",
     "lit_outside",
+    "minus_at",
     "project",
     "shadow_update",
     "sky_ratios",
@@ -202,41 +202,39 @@ def _column_step(sums: np.ndarray, t: int, k: int, total: np.ndarray, vals: np.n
     return True
 
 
-@njit(cache=True, nogil=True)
-def _first_box(
-    sums: np.ndarray, k: int, thr: Any, eps: Any, num: np.ndarray, den: np.ndarray, rest: np.ndarray
-) -> None:
-    """The box of side ``k`` over the row sums ``sums`` (h, 4, w): ``num[c] = box(w_c)``,
-    ``den = max(box(lit), eps)`` (both in ``num``'s dtype) and ``rest`` where ``box(lit)`` is
-    at most ``thr`` (1) or not (0)."""
+@njit(cache=True, nogil=True, error_model="numpy")
+def _first_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray) -> None:
+    """The box of side ``k`` over the row sums ``sums`` (h, 4, w): ``mean[c] = box(w_c) /
+    max(box(lit), eps)`` in ``mean``'s dtype for every pixel (no branch: the divisions are
+    vectorised) and ``rest`` where ``box(lit)`` is at most ``thr``."""
     h, w = rest.shape
     flat = sums.reshape(h, 4 * w)
     total = np.zeros(4 * w, np.float64)
-    vals = np.empty((4, w), num.dtype)
+    vals = np.empty((4, w), mean.dtype)
+    den = np.empty(w, mean.dtype)
     for t in range(h + k - 1):
         if not _column_step(flat, t, k, total, vals.reshape(-1)):
             continue
         y = t - (k - 1)
         for i in range(w):
-            den[y, i] = max(vals[0, i], eps)
+            den[i] = max(vals[0, i], eps)
             rest[y, i] = not vals[0, i] > thr
         for c in range(3):
-            num[c, y] = vals[1 + c]
+            out, num = mean[c, y], vals[1 + c]
+            for i in range(w):
+                out[i] = num[i] / den[i]
 
 
-@njit(cache=True, nogil=True)
-def _second_box(
-    sums: np.ndarray, k: int, thr: Any, eps: Any, num: np.ndarray, den: np.ndarray, rest: np.ndarray
-) -> int:
+@njit(cache=True, nogil=True, error_model="numpy")
+def _second_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray) -> int:
     """Where ``rest`` is set, the box of side ``k`` over the row sums ``sums`` (h, 4, w): its
-    mean ``box(w_c) / max(box(lit), eps)`` into ``num`` and 1 into ``den`` where ``box(lit)``
-    exceeds ``thr`` (``rest`` cleared), else 0 and 1 (``rest`` becomes 2). Returns how many
-    pixels neither box holds enough for."""
+    mean ``box(w_c) / max(box(lit), eps)`` into ``mean`` where ``box(lit)`` exceeds ``thr``
+    (``rest`` cleared), else 0 (``rest`` becomes 2). Returns how many pixels neither box
+    holds enough for."""
     h, w = rest.shape
     flat = sums.reshape(h, 4 * w)
     total = np.zeros(4 * w, np.float64)
-    vals = np.empty((4, w), num.dtype)
-    one = den.dtype.type(1.0)
+    vals = np.empty((4, w), mean.dtype)
     n = 0
     for t in range(h + k - 1):
         if not _column_step(flat, t, k, total, vals.reshape(-1)):
@@ -247,52 +245,54 @@ def _second_box(
                 continue
             weight = vals[0, i]
             big = weight > thr
-            d = max(weight, eps)
+            den = max(weight, eps)
             for c in range(3):
-                num[c, y, i] = vals[1 + c, i] / d if big else 0.0
-            den[y, i] = one
+                mean[c, y, i] = vals[1 + c, i] / den if big else 0.0
             rest[y, i] = 0 if big else 2
             n += not big
     return n
 
 
 @njit(cache=True, nogil=True)
-def lit_boxes(
-    logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, num: np.ndarray,
-    den: np.ndarray, rest: np.ndarray,
+def lit_diff(
+    logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, diff: np.ndarray,
+    rest: np.ndarray,
 ) -> int:  # fmt: skip
-    """Each pixel's lit reference as the fraction ``num / den`` (the caller divides, as numpy
-    does it vectorised): the box mean of the first box of ``sizes`` where its weight exceeds
-    ``thr``, else the second box's where its does (there ``den`` is 1), else 0 / 1 and
-    ``rest`` is 2 (returned: how many; the caller puts the frame's mean there). A box's mean
-    is ``box(logs[c] * lit) / max(box(lit), eps)``, its weight ``box(lit)``.
+    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first box
+    of ``sizes`` where its weight exceeds ``thr``, else the second box's where its does, else
+    0 and ``rest`` is 2 (returned: how many; the caller subtracts the frame's mean there). A
+    box's mean is ``box(logs[c] * lit) / max(box(lit), eps)``, its weight ``box(lit)``.
 
     ``box`` is ``cv2.blur(x, (k, k))`` (``BORDER_REFLECT_101``) of the four-channel image
-    ``[lit, logs * lit]`` (the product in ``lit``'s dtype, ``num``'s), bit for bit:
+    ``[lit, logs * lit]`` (the product in ``lit``'s dtype, ``diff``'s), bit for bit:
     OpenCV's row sums (three or five terms left to right, else running) and running column
     sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold it to
-    ``cv2.blur``); the comparison and the division are in that dtype. The second box's means
-    are computed only where the first box holds too few.
+    ``cv2.blur``); the comparison, the division and the difference are in that dtype. The
+    second box's means are computed only where the first box holds too few.
     """
     h, w = lit.shape
     sums = np.empty((2, h, 4, w), np.float64)
     _row_sums(logs, lit, sizes, sums)
-    _first_box(sums[0], sizes[0], thr, eps, num, den, rest)
-    return _second_box(sums[1], sizes[1], thr, eps, num, den, rest)
+    _first_box(sums[0], sizes[0], thr, eps, diff, rest)
+    n = _second_box(sums[1], sizes[1], thr, eps, diff, rest)
+    src, dst = logs.reshape(-1), diff.reshape(-1)
+    for i in range(dst.size):
+        dst[i] = src[i] - dst[i]
+    return n
 
 
 @njit(cache=True, nogil=True)
-def fill_where(x: np.ndarray, value: np.ndarray, where: np.ndarray, code: int) -> None:
-    """``x[c][where == code] = value[c]`` for a (3, h, w) ``x``."""
+def minus_at(logs: np.ndarray, frame: np.ndarray, where: np.ndarray, code: int, diff: np.ndarray) -> None:
+    """``diff[c][where == code] = logs[c][where == code] - frame[c]`` (``frame`` (3,) in ``diff``'s dtype)."""
     h, w = where.shape
     for i in range(h):
         for j in range(w):
             if where[i, j] == code:
                 for c in range(3):
-                    x[c, i, j] = value[c]
+                    diff[c, i, j] = logs[c, i, j] - frame[c]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def project(x: np.ndarray, d: np.ndarray, den: Any, out: np.ndarray) -> None:
     """``out = float32((d[0] * x[0] + d[1] * x[1]) + d[2] * x[2]) / den``: the coordinate of each
     pixel of ``x`` (3, H, W) along ``d`` (3,), products and sums in their common dtype, ``den``
@@ -304,7 +304,7 @@ def project(x: np.ndarray, d: np.ndarray, den: Any, out: np.ndarray) -> None:
         dst[i] = np.float32((d[0] * a[i] + d[1] * b[i]) + d[2] * c[i]) / den
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def alpha_chroma(
     diff: np.ndarray, d: np.ndarray, dd: Any, dc: np.ndarray, dcc: Any, alpha: np.ndarray, chroma: np.ndarray
 ) -> None:  # fmt: skip

@@ -78,9 +78,9 @@ from simroad.filters._kernels import (
 from simroad.filters._relight_kernels import (
     alpha_chroma,
     edge_pairs,
-    fill_where,
-    lit_boxes,
+    lit_diff,
     lit_outside,
+    minus_at,
     project,
     shadow_update,
     sky_ratios,
@@ -152,20 +152,18 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    Both boxes in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_boxes`:
+    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
-    exceeds 0.15), in ``lit``'s dtype; the smaller box's divisions by numpy (vectorised), the
-    frame's mean only when some pixel needs it.
+    exceeds 0.15), in ``lit``'s dtype; the larger box only where the smaller holds too few,
+    the frame's mean only when some pixel needs it.
     """
     kind = lit.dtype.type
-    mean = np.empty(logs.shape, lit.dtype)
-    den = np.empty(lit.shape, lit.dtype)
+    diff = np.empty(logs.shape, lit.dtype)
     rest = np.empty(lit.shape, np.uint8)
-    if lit_boxes(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), mean, den, rest):
+    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest):
         frame = (logs * lit).sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
-        fill_where(mean, frame, rest, 2)
-    np.divide(mean, den, out=mean)
-    return np.subtract(logs, mean, out=mean)
+        minus_at(logs, frame, rest, 2, diff)
+    return diff
 
 
 def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
