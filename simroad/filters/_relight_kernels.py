@@ -22,6 +22,7 @@ __all__ = [
     "lit_diff",
     "lit_outside",
     "minus_at",
+    "next_direction",
     "project",
     "shadow_update",
     "sky_ratios",
@@ -133,7 +134,7 @@ def _reflect101(p: int, n: int) -> int:
 def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
     """The row sums of OpenCV's box filter (``RowSum``, float64) over a bordered row ``ext``
     (4, w + k - 1) into ``row`` (4, w): three or five terms summed left to right, else a
-    running sum (the four channels' chains interleaved)."""
+    running sum (the four channels' chains interleaved, the first sums too)."""
     w = row.shape[1]
     if k == 3 or k == 5:
         for c in range(4):
@@ -143,12 +144,13 @@ def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
                     s += ext[c, i + m]
                 row[c, i] = s
         return
-    for c in range(4):
-        s = 0.0
-        for m in range(k):
-            s += ext[c, m]
-        row[c, 0] = s
-    s0, s1, s2, s3 = row[0, 0], row[1, 0], row[2, 0], row[3, 0]
+    s0 = s1 = s2 = s3 = 0.0
+    for m in range(k):
+        s0 += ext[0, m]
+        s1 += ext[1, m]
+        s2 += ext[2, m]
+        s3 += ext[3, m]
+    row[0, 0], row[1, 0], row[2, 0], row[3, 0] = s0, s1, s2, s3
     for i in range(w - 1):
         s0 += ext[0, i + k] - ext[0, i]
         s1 += ext[1, i + k] - ext[1, i]
@@ -319,6 +321,34 @@ def alpha_chroma(
         da[i] = np.float32((d[0] * x + d[1] * y) + d[2] * z) / dd
         m = ((x + y) + z) / three
         ch[i] = np.float32((dc[0] * (x - m) + dc[1] * (y - m)) + dc[2] * (z - m)) / dcc
+
+
+@njit(cache=True, nogil=True)
+def next_direction(
+    diff: np.ndarray, core: np.ndarray, d: np.ndarray, fewest: int, cap: Any, new: np.ndarray
+) -> tuple[int, float]:  # fmt: skip
+    """The shadow step re-estimated over the cores: how many pixels of ``core`` ((h, w), any
+    nonzero value set) are set and, when more than ``fewest``, ``new = np.minimum(np.median(
+    diff[:, core != 0], axis=1), cap)`` (each channel by :func:`~simroad.filters._kernels.median`,
+    bit for bit) and how far it moved, ``float(np.abs(new - d).max())``, else 0.0."""
+    flat = core.reshape(-1)
+    where = np.empty(flat.size, np.int64)
+    n = 0
+    for i in range(flat.size):
+        if flat[i]:
+            where[n] = i
+            n += 1
+    if n <= fewest:
+        return n, 0.0
+    buf = np.empty(n, diff.dtype)
+    moved = 0.0
+    for c in range(3):
+        plane = diff[c].reshape(-1)
+        for m in range(n):
+            buf[m] = plane[where[m]]
+        new[c] = min(median(buf), cap)
+        moved = max(moved, abs(new[c] - d[c]))
+    return n, moved
 
 
 @njit(cache=True, nogil=True)

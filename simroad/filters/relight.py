@@ -71,7 +71,6 @@ from simroad.filters._common import (
 )
 from simroad.filters._kernels import (
     linear_halves,
-    masked_medians,
     median_at_most,
     quantize_take,
 )
@@ -81,6 +80,7 @@ from simroad.filters._relight_kernels import (
     lit_diff,
     lit_outside,
     minus_at,
+    next_direction,
     project,
     shadow_update,
     sky_ratios,
@@ -202,11 +202,10 @@ def _coverage(
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
         lit = np.empty(valid.shape, np.float64)
         lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
-        core = cv2.erode(shadow, core_disc).astype(bool)
-        if core.sum() <= 20:
+        new = np.empty(3, diff.dtype)  # the median (pixel - reference) over the eroded shadow cores
+        cores, moved = next_direction(diff, cv2.erode(shadow, core_disc), d, 20, diff.dtype.type(-1e-3), new)
+        if cores <= 20:
             break
-        new: np.ndarray = np.minimum(masked_medians(diff, core), -1e-3)
-        moved = float(np.abs(new - d).max())
         d = new
         if moved < 0.01:
             break

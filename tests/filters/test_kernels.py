@@ -395,6 +395,27 @@ def test_strong_median_is_the_median_of_the_pairs_over_the_percentile():
         np.testing.assert_array_equal(strong_median(pairs, 75.0), expect)
 
 
+@pytest.mark.parametrize("kinds", [(np.float32, np.float32), (np.float64, np.float32), (np.float64, np.float64)])
+def test_next_direction_is_the_capped_median_over_the_cores(kinds):
+    from simroad.filters._relight_kernels import next_direction
+
+    kind, kind_d = kinds
+    rng = np.random.default_rng(20)
+    diff = (np.round(rng.normal(-0.5, 0.4, (3, 20, 30)) * 16) / 16).astype(kind)  # ties
+    for k in range(40):
+        core = (rng.random((20, 30)) < rng.uniform(0.0, 0.5)).astype(np.uint8) * np.uint8(1 + k % 2)
+        d = rng.normal(-0.5, 0.2, 3).astype(kind_d)
+        new = np.full(3, np.nan, kind)
+        count, moved = next_direction(diff, core, d, 20, kind(-1e-3), new)
+        assert count == np.count_nonzero(core)
+        if count <= 20:
+            assert moved == 0.0 and np.isnan(new).all()
+            continue
+        expect = np.minimum(np.median(diff[:, core != 0], axis=1), -1e-3)
+        np.testing.assert_array_equal(new, expect)
+        assert moved == float(np.abs(expect - d).max())
+
+
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
 def test_pow_sparing_zeros_is_cv2_pow(power):
     from simroad.filters._common import pow_sparing_zeros
