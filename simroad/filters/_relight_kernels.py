@@ -18,12 +18,15 @@ from simroad.filters._kernels import _quantize_row, _select, median
 
 __all__ = [
     "alpha_chroma",
+    "clip_inside",
     "edge_pairs",
     "lit_diff",
     "lit_outside",
     "minus_at",
     "next_direction",
     "project",
+    "put_at",
+    "relit_linear",
     "shadow_update",
     "sky_ratios",
     "strong_median",
@@ -349,6 +352,63 @@ def next_direction(
         new[c] = min(median(buf), cap)
         moved = max(moved, abs(new[c] - d[c]))
     return n, moved
+
+
+@njit(cache=True, nogil=True)
+def clip_inside(alpha: np.ndarray, region: np.ndarray, out: np.ndarray) -> None:
+    """``out = np.where(region > 0, np.clip(alpha, 0, 1), 0)`` in float32 (NaN stays NaN, as in np.clip)."""
+    h, w = region.shape
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(h):
+        for j in range(w):
+            v = alpha[i, j]
+            v = zero if v < zero else (one if v > one else v)
+            out[i, j] = v if region[i, j] > 0 else zero
+
+
+@njit(cache=True, nogil=True)
+def _level(v: Any, top: Any) -> int:
+    """One value of :func:`~simroad.filters._kernels._quantize_row`: ``int(clip(rint(v * top), 0, top))`` in float32."""
+    x = v * top
+    x = x if x > np.float32(0.0) else np.float32(0.0)
+    x = x if x < top else top
+    return int((x + np.float32(8388608.0)) - np.float32(8388608.0))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def relit_linear(
+    full: np.ndarray, thr: Any, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, table: np.ndarray, ks: np.ndarray,
+    where: np.ndarray, lin: np.ndarray, mask: np.ndarray,
+) -> int:  # fmt: skip
+    """The pixels whose ``full`` (h, w) exceeds ``thr`` (float32), in row-major order: their flat
+    indices into ``where``, ``mask`` set, and each channel's relit linear signal ``table[q(p_c)]
+    / (1 - a * (1 - ks[c]))`` into ``lin[c]`` (float32; ``q`` as :func:`~simroad.filters._kernels.quantize_take`,
+    ``a`` the pixel's ``full``); returns how many."""
+    h, w = full.shape
+    top = np.float32(table.size - 1)
+    one = np.float32(1.0)
+    n = 0
+    for i in range(h):
+        for j in range(w):
+            a = full[i, j]
+            mask[i, j] = a > thr
+            if not a > thr:
+                continue
+            where[n] = i * w + j
+            lin[0, n] = table[_level(p0[i, j], top)] / (one - a * (one - ks[0]))
+            lin[1, n] = table[_level(p1[i, j], top)] / (one - a * (one - ks[1]))
+            lin[2, n] = table[_level(p2[i, j], top)] / (one - a * (one - ks[2]))
+            n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def put_at(where: np.ndarray, values: np.ndarray, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> None:
+    """``p_c.flat[where] = values[c]`` for three contiguous (h, w) planes."""
+    f0, f1, f2 = p0.reshape(-1), p1.reshape(-1), p2.reshape(-1)
+    for m in range(where.size):
+        i = where[m]
+        f0[i], f1[i], f2[i] = values[0, m], values[1, m], values[2, m]
 
 
 @njit(cache=True, nogil=True)

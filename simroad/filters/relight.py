@@ -76,12 +76,15 @@ from simroad.filters._kernels import (
 )
 from simroad.filters._relight_kernels import (
     alpha_chroma,
+    clip_inside,
     edge_pairs,
     lit_diff,
     lit_outside,
     minus_at,
     next_direction,
     project,
+    put_at,
+    relit_linear,
     shadow_update,
     sky_ratios,
     strong_median,
@@ -212,6 +215,28 @@ def _coverage(
     return alpha, shadow, d
 
 
+def _relight_band(
+    planes: Planes, full: np.ndarray, top: int, k: np.ndarray, table: np.ndarray, shoulder: float, inplace: bool
+) -> tuple[Planes, np.ndarray] | None:
+    """Step 4 of the module notes on the rows from ``top`` that ``full`` (``α`` at full resolution,
+    clipped, 0 outside the grown shadows) covers: where ``α > 0.02``, linear radiance divided
+    by ``1 − α (1 − k)`` (compiled, :func:`~simroad.filters._relight_kernels.relit_linear`) and
+    re-encoded (:func:`~simroad.filters._common.linear_to_camera`, the three channels in one
+    call); (new planes, relit mask), or None when no pixel is."""
+    h, w = planes[0].shape
+    band = slice(top, top + full.shape[0])
+    where = np.empty(full.size, np.int64)
+    lin = np.empty((3, full.size), np.float32)
+    mask = np.zeros((h, w), bool)
+    n = relit_linear(full, np.float32(0.02), planes[0][band], planes[1][band], planes[2][band], table, k, where, lin,
+                     mask[band])  # fmt: skip
+    if not n:
+        return None
+    out = list(planes) if inplace else [p.copy() for p in planes]
+    put_at(where[:n], linear_to_camera(lin[:, :n], shoulder), out[0][band], out[1][band], out[2][band])
+    return out, mask
+
+
 def _relight_planes(
     planes: Planes, *, shoulder: float, rows: float, sky_rows: float, min_sky_blue: float,
     min_drop: float, min_pairs: int, window: int, inplace: bool = False,
@@ -236,19 +261,11 @@ def _relight_planes(
     d0 = strong_median(pairs, 75.0)  # the median of the strongest quarter of the pairs (by red)
     alpha, shadow, d = _coverage(logs, valid, d0, window)
     region = cv2.dilate(shadow, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _GROW + 1, 2 * _GROW + 1)))
-    alpha = np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32)
-    full = cv2.resize(alpha, (w, 2 * hs), interpolation=cv2.INTER_LINEAR)
-    sel = full > 0.02
-    if not sel.any():
-        return unchanged
-    a = full[sel]
-    out = list(planes) if inplace else [p.copy() for p in planes]
-    for c, k in enumerate(np.exp(d).astype(np.float32)):
-        lin = _linearise(planes[c][top : top + 2 * hs][sel].reshape(1, -1), table).reshape(-1)
-        out[c][top : top + 2 * hs][sel] = linear_to_camera(lin / (1.0 - a * (1.0 - k)), shoulder)
-    mask = np.zeros((h, w), bool)
-    mask[top : top + 2 * hs] = sel
-    return out, mask
+    inside = np.empty(alpha.shape, np.float32)
+    clip_inside(alpha, region, inside)  # np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0)
+    full = cv2.resize(inside, (w, 2 * hs), interpolation=cv2.INTER_LINEAR)
+    relit = _relight_band(planes, full, top, np.exp(d).astype(np.float32), table, shoulder, inplace)
+    return unchanged if relit is None else relit
 
 
 def relight_shadows(

@@ -416,6 +416,44 @@ def test_next_direction_is_the_capped_median_over_the_cores(kinds):
         assert moved == float(np.abs(expect - d).max())
 
 
+def test_relit_pixels_are_the_numpy_relighting():
+    from simroad.filters._common import linear_to_camera
+    from simroad.filters._relight_kernels import clip_inside, put_at, relit_linear
+    from simroad.filters.relight import _linear_table
+
+    rng = np.random.default_rng(21)
+    table = _linear_table(1.0)
+    for _k in range(10):
+        alpha = rng.normal(0.3, 0.6, (27, 40)).astype(np.float32)
+        alpha[0, :3] = [np.nan, -0.0, 1.0]
+        region = (rng.random((27, 40)) < 0.6).astype(np.uint8)
+        inside = np.empty_like(alpha)
+        clip_inside(alpha, region, inside)
+        np.testing.assert_array_equal(inside, np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32))
+        full = cv2.resize(np.nan_to_num(inside), (80, 54), interpolation=cv2.INTER_LINEAR)
+        full[3, :3] = [np.float32(0.02), np.nextafter(np.float32(0.02), np.float32(1)), 0.9999]
+        planes = [rng.random((54, 80), dtype=np.float32) for _ in range(3)]
+        ks = rng.uniform(0.2, 0.6, 3).astype(np.float32)
+        where, lin, mask = (
+            np.empty(full.size, np.int64),
+            np.empty((3, full.size), np.float32),
+            np.empty(full.shape, bool),
+        )
+        n = relit_linear(full, np.float32(0.02), *planes, table, ks, where, lin, mask)
+        sel = full > 0.02
+        np.testing.assert_array_equal(mask, sel)
+        assert n == sel.sum()
+        np.testing.assert_array_equal(where[:n], np.flatnonzero(sel))
+        expect = [p.copy() for p in planes]
+        a = full[sel]
+        for c, k in enumerate(ks):
+            ref = _linearise_reference(planes[c][sel], table) / (1.0 - a * (1.0 - k))
+            np.testing.assert_array_equal(lin[c, :n], ref)
+            expect[c][sel] = linear_to_camera(ref, 1.0)
+        put_at(where[:n], linear_to_camera(lin[:, :n], 1.0), *planes)  # cv2.pow: a function of the value alone
+        np.testing.assert_array_equal(np.stack(planes), np.stack(expect))
+
+
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
 def test_pow_sparing_zeros_is_cv2_pow(power):
     from simroad.filters._common import pow_sparing_zeros
