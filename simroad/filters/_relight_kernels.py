@@ -20,6 +20,7 @@ __all__ = [
     "alpha_chroma",
     "clip_inside",
     "edge_pairs",
+    "first_lit",
     "lit_diff",
     "lit_outside",
     "minus_at",
@@ -121,6 +122,53 @@ def strong_median(pairs: np.ndarray, q: float) -> np.ndarray:
     for c in range(3):
         out[c] = median(keep[c, :m])
     return out
+
+
+@njit(cache=True, nogil=True)
+def _max_down(x: np.ndarray, k: int, out: np.ndarray) -> None:
+    """``out[i] = max(x[i - k // 2 : i - k // 2 + k])`` down each column of ``x`` (n, m), the window
+    cut at the edges (as ``cv2.dilate``'s border): van Herk / Gil-Werman, the prefix and
+    suffix maxima within blocks of ``k`` of the columns padded with -inf, the columns side
+    by side (vectorised)."""
+    n, m = x.shape
+    a = k // 2
+    size = n + k - 1
+    pad = np.full(m, -np.inf, x.dtype)
+    first = np.empty((size, m), x.dtype)  # max from the start of the block
+    last = np.empty((size, m), x.dtype)  # max to the end of the block
+    for j in range(size):
+        row = x[j - a] if 0 <= j - a < n else pad
+        if j % k == 0:
+            first[j] = row
+        else:
+            for c in range(m):
+                first[j, c] = max(first[j - 1, c], row[c])
+    for j in range(size - 1, -1, -1):
+        row = x[j - a] if 0 <= j - a < n else pad
+        if j % k == k - 1 or j == size - 1:
+            last[j] = row
+        else:
+            for c in range(m):
+                last[j, c] = max(last[j + 1, c], row[c])
+    for i in range(n):
+        for c in range(m):
+            out[i, c] = max(last[i, c], first[i + k - 1, c])
+
+
+@njit(cache=True, nogil=True)
+def first_lit(bright: np.ndarray, lit_ok: np.ndarray, k: int, step: Any, out: np.ndarray) -> None:
+    """``out = lit_ok * (bright >= cv2.dilate(bright, np.ones((k, k), np.uint8)) - step)``
+    (float32, ``step`` float32): the maximum over the box, exact in any order, down the
+    columns then along the rows (:func:`_max_down` of the transposed)."""
+    h, w = bright.shape
+    down = np.empty((h, w), bright.dtype)
+    _max_down(bright, k, down)
+    across = np.empty((w, h), bright.dtype)
+    _max_down(np.ascontiguousarray(down.T), k, across)
+    zero = np.float32(0.0)
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = lit_ok[i, j] if bright[i, j] >= across[j, i] - step else zero
 
 
 @njit(cache=True, nogil=True)

@@ -78,6 +78,7 @@ from simroad.filters._relight_kernels import (
     alpha_chroma,
     clip_inside,
     edge_pairs,
+    first_lit,
     lit_diff,
     lit_outside,
     minus_at,
@@ -178,7 +179,7 @@ def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarr
     (:func:`~simroad.filters._relight_kernels.alpha_chroma`: the three products summed in
     the order OpenBLAS's gemv sums them, bit for bit here).
     """
-    dc = d - d.mean()
+    dc = d - (d[0] + d[1] + d[2]) / 3  # d - d.mean(): numpy sums three values left to right
     alpha = np.empty(diff.shape[1:], np.float32)
     chroma = np.empty(diff.shape[1:], np.float32)
     alpha_chroma(diff, d, np.float32(d @ d), dc, np.float32(dc @ dc), alpha, chroma)
@@ -196,8 +197,8 @@ def _coverage(
     # d) of a wide box around them, so a shadow wider than the box is not its own reference.
     bright = np.empty(valid.shape, np.float32)
     project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
-    top = cv2.dilate(bright, np.ones((3 * window, 3 * window), np.uint8))
-    lit = lit_ok * (bright >= top - _FIRST_LIT)
+    lit = np.empty(valid.shape, np.float32)
+    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit)
     shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
         diff = _lit_diff(logs, lit, window)
@@ -254,7 +255,10 @@ def _relight_planes(
     valid = (cv2.max(cv2.max(small[0], small[1]), small[2]) < _SAT) & (
         cv2.min(cv2.min(small[0], small[1]), small[2]) > _DARK
     )
-    logs = np.stack([np.log(np.maximum(cv2.blur(p, (3, 3)), _DARK)) for p in small])
+    logs = np.empty((3, *small[0].shape), np.float32)
+    for p, log in zip(small, logs):  # np.log(np.maximum(cv2.blur(p, (3, 3)), _DARK)), no temporaries
+        box = cv2.blur(p, (3, 3))
+        np.log(np.maximum(box, np.float32(_DARK), out=box), out=log)
     pairs = _edge_pairs(logs, valid, min_drop)
     if len(pairs) < min_pairs:
         return unchanged

@@ -454,6 +454,27 @@ def test_relit_pixels_are_the_numpy_relighting():
         np.testing.assert_array_equal(np.stack(planes), np.stack(expect))
 
 
+def test_first_lit_is_the_dilation_test():
+    from simroad.filters._relight_kernels import first_lit
+
+    rng = np.random.default_rng(22)
+    for h, w, k in ((54, 160, 93), (54, 160, 9), (20, 31, 4), (7, 5, 30), (1, 12, 3), (33, 40, 1)):
+        bright = (np.round(rng.normal(0.0, 1.0, (h, w)) * 4) / 4).astype(np.float32)  # ties
+        lit_ok = (rng.random((h, w)) < 0.8).astype(np.float32)
+        top = cv2.dilate(bright, np.ones((k, k), np.uint8))
+        out = np.empty((h, w), np.float32)
+        first_lit(bright, lit_ok, k, np.float32(0.8), out)
+        np.testing.assert_array_equal(out, lit_ok * (bright >= top - 0.8))
+
+
+@pytest.mark.parametrize("kind", [np.float32, np.float64])
+def test_the_mean_of_three_is_numpys(kind):
+    """relight's ``d - (d[0] + d[1] + d[2]) / 3`` for ``d - d.mean()``: numpy sums three values left to right."""
+    rng = np.random.default_rng(23)
+    for d in (-rng.random((5000, 3)) * rng.uniform(1e-3, 3.0, (5000, 1))).astype(kind):
+        assert (d[0] + d[1] + d[2]) / 3 == d.mean()
+
+
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
 def test_pow_sparing_zeros_is_cv2_pow(power):
     from simroad.filters._common import pow_sparing_zeros
