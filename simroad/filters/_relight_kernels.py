@@ -3,7 +3,15 @@
 As in :mod:`simroad.filters._kernels` (the loops the other filters share): each loop
 reproduces, operation by operation, what the numpy/OpenCV code it replaces computes, so
 the filter's output is bit-identical; :mod:`tests.filters.test_kernels` holds them to
-their references.
+their references. Two reproduce a library's order rather than a documented one: the box
+filters OpenCV's running sums (``cv2.blur``), the projections the order in which
+OpenBLAS's gemv sums three products (``np.tensordot``; the test compares with it within
+1e-6, so another BLAS would fail only that). A maximum (:func:`first_lit`) is exact in
+any order. The loops that divide compile with numba's numpy error model (no
+ZeroDivisionError test, so LLVM vectorises the divisions): a box's weight is at least
+1e-6 and ``d @ d`` positive; ``(d - mean d) @ itself`` is 0 only for a grey ``d`` (every
+channel capped at -1e-3), where the chroma is now NaN (no shadow, the frame unchanged)
+and the numpy code's compiled division raised ZeroDivisionError.
 """
 
 from __future__ import annotations

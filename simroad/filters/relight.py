@@ -46,10 +46,14 @@ rain, snow and fog frames come back bit-identical (the sky test); 1 of 48 glare
 frames at 0.4 and at 0.8 is touched, the cells' FNR/FPR unchanged. Without the sky
 test 14 of 48 clear frames held enough shadow-like pairs (repair patches, window
 bands of buildings). Cost at 320x180 (CPU time on the shared machine, ``make bench``):
-about 0.1 ms on frames without shadows (the sky test), 2-5 ms on shadow frames, most
-of it the rounds of step 3, whose box filters, medians and per-pixel steps are compiled
-(:mod:`simroad.filters._kernels`, bit for bit the numpy/OpenCV computation); the two
-projections of a round stay numpy's (BLAS).
+about 0.1 ms on frames without shadows (the sky test), about 2 ms on shadow frames (six
+frames at severity 0.7: median 3.6 ms before the loops below were compiled, December
+2026), most of it the rounds of step 3. Their box filters, projections, medians and
+per-pixel steps, the first guess of the lit pixels, the first estimate of ``d`` and the
+relighting are compiled (:mod:`simroad.filters._relight_kernels`), bit for bit the
+numpy/OpenCV computation they replace; the projections sum their three products in the
+order the BLAS numpy ships with sums them (``np.tensordot``; another BLAS may round an
+``α`` differently in its last bit).
 """
 
 from __future__ import annotations
