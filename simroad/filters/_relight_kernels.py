@@ -3,26 +3,42 @@
 As in :mod:`simroad.filters._kernels` (the loops the other filters share): each loop
 reproduces, operation by operation, what the numpy/OpenCV code it replaces computes, so
 the filter's output is bit-identical; :mod:`tests.filters.test_kernels` holds them to
-their references.
+their references. Two reproduce a library's order rather than a documented one: the box
+filters OpenCV's running sums (``cv2.blur``), the projections the order in which
+OpenBLAS's gemv sums three products (``np.tensordot``; the test compares with it within
+1e-6, so another BLAS would fail only that). A maximum (:func:`first_lit`) is exact in
+any order. The loops that divide compile with numba's numpy error model (no
+ZeroDivisionError test, so LLVM vectorises the divisions): a box's weight is at least
+1e-6 and ``d @ d`` positive; ``(d - mean d) @ itself`` is 0 only for a grey ``d`` (every
+channel capped at -1e-3), where the chroma is now NaN (no shadow, the frame unchanged)
+and the numpy code's compiled division raised ZeroDivisionError.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 from numba import njit
 
-from simroad.filters._kernels import _quantize_row
+from simroad.filters._kernels import _quantize_row, _select, median
 
 __all__ = [
-    "centre_channels",
+    "alpha_chroma",
+    "clip_inside",
     "edge_pairs",
-    "float32_over",
+    "first_lit",
     "lit_diff",
     "lit_outside",
+    "minus_at",
+    "next_direction",
+    "project",
+    "put_at",
+    "relit_linear",
     "shadow_update",
     "sky_ratios",
+    "strong_median",
 ]
 
 
@@ -77,6 +93,93 @@ def edge_pairs(logs: np.ndarray, valid: np.ndarray, shift: int, drop: Any, bluer
 
 
 @njit(cache=True, nogil=True)
+def _percentile(x: np.ndarray, q: float) -> Any:
+    """``np.percentile(x, q)`` (linear) of a non-empty float32 array without NaN, bit for bit:
+    the order statistics around ``(n - 1) * (q / 100)`` (``x`` is reordered) and numpy's
+    ``_lerp`` of them in float32 (``b - (b - a) * (1 - t)`` from ``t = 0.5`` on)."""
+    n = x.size
+    v = (n - 1) * (q / 100.0)
+    lo = n - 1 if v >= n - 1 else int(math.floor(v))
+    hi = min(lo + 1, n - 1)
+    b = _select(x, hi)
+    a = x[:hi].max() if lo < hi else b  # after the selection, everything left of hi is <= b
+    t = v - lo
+    step = b - a
+    if t >= 0.5:
+        return b - step * np.float32(1.0 - t)
+    return a + step * np.float32(t)
+
+
+@njit(cache=True, nogil=True)
+def strong_median(pairs: np.ndarray, q: float) -> np.ndarray:
+    """``np.median(pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], q)], axis=0)`` of a non-empty
+    float32 (N, 3) array without NaN, bit for bit (:func:`_percentile`, then
+    :func:`~simroad.filters._kernels.median` of each column of the rows kept)."""
+    n = pairs.shape[0]
+    drop = np.empty(n, pairs.dtype)
+    for i in range(n):
+        drop[i] = -pairs[i, 0]
+    thr = _percentile(drop.copy(), q)
+    keep = np.empty((3, n), pairs.dtype)
+    m = 0
+    for i in range(n):
+        if drop[i] >= thr:
+            keep[0, m], keep[1, m], keep[2, m] = pairs[i, 0], pairs[i, 1], pairs[i, 2]
+            m += 1
+    out = np.empty(3, pairs.dtype)
+    for c in range(3):
+        out[c] = median(keep[c, :m])
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _max_down(x: np.ndarray, k: int, out: np.ndarray) -> None:
+    """``out[i] = max(x[i - k // 2 : i - k // 2 + k])`` down each column of ``x`` (n, m), the window
+    cut at the edges (as ``cv2.dilate``'s border): van Herk / Gil-Werman, the prefix and
+    suffix maxima within blocks of ``k`` of the columns padded with -inf, the columns side
+    by side (vectorised)."""
+    n, m = x.shape
+    a = k // 2
+    size = n + k - 1
+    pad = np.full(m, -np.inf, x.dtype)
+    first = np.empty((size, m), x.dtype)  # max from the start of the block
+    last = np.empty((size, m), x.dtype)  # max to the end of the block
+    for j in range(size):
+        row = x[j - a] if 0 <= j - a < n else pad
+        if j % k == 0:
+            first[j] = row
+        else:
+            for c in range(m):
+                first[j, c] = max(first[j - 1, c], row[c])
+    for j in range(size - 1, -1, -1):
+        row = x[j - a] if 0 <= j - a < n else pad
+        if j % k == k - 1 or j == size - 1:
+            last[j] = row
+        else:
+            for c in range(m):
+                last[j, c] = max(last[j + 1, c], row[c])
+    for i in range(n):
+        for c in range(m):
+            out[i, c] = max(last[i, c], first[i + k - 1, c])
+
+
+@njit(cache=True, nogil=True)
+def first_lit(bright: np.ndarray, lit_ok: np.ndarray, k: int, step: Any, out: np.ndarray) -> None:
+    """``out = lit_ok * (bright >= cv2.dilate(bright, np.ones((k, k), np.uint8)) - step)``
+    (float32, ``step`` float32): the maximum over the box, exact in any order, down the
+    columns then along the rows (:func:`_max_down` of the transposed)."""
+    h, w = bright.shape
+    down = np.empty((h, w), bright.dtype)
+    _max_down(bright, k, down)
+    across = np.empty((w, h), bright.dtype)
+    _max_down(np.ascontiguousarray(down.T), k, across)
+    zero = np.float32(0.0)
+    for i in range(h):
+        for j in range(w):
+            out[i, j] = lit_ok[i, j] if bright[i, j] >= across[j, i] - step else zero
+
+
+@njit(cache=True, nogil=True)
 def _reflect101(p: int, n: int) -> int:
     """OpenCV's ``borderInterpolate(p, n, BORDER_REFLECT_101)``."""
     if n == 1:
@@ -89,48 +192,54 @@ def _reflect101(p: int, n: int) -> int:
 @njit(cache=True, nogil=True)
 def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
     """The row sums of OpenCV's box filter (``RowSum``, float64) over a bordered row ``ext``
-    (w + k - 1, 4): three or five terms summed left to right, else a running sum."""
-    w = row.shape[0]
+    (4, w + k - 1) into ``row`` (4, w): three or five terms summed left to right, else a
+    running sum (the four channels' chains interleaved, the first sums too)."""
+    w = row.shape[1]
     if k == 3 or k == 5:
-        for i in range(w):
-            for c in range(4):
-                s = ext[i, c] + ext[i + 1, c]
+        for c in range(4):
+            for i in range(w):
+                s = ext[c, i] + ext[c, i + 1]
                 for m in range(2, k):
-                    s += ext[i + m, c]
-                row[i, c] = s
+                    s += ext[c, i + m]
+                row[c, i] = s
         return
-    for c in range(4):
-        s = 0.0
-        for m in range(k):
-            s += ext[m, c]
-        row[0, c] = s
-    s0, s1, s2, s3 = row[0, 0], row[0, 1], row[0, 2], row[0, 3]
+    s0 = s1 = s2 = s3 = 0.0
+    for m in range(k):
+        s0 += ext[0, m]
+        s1 += ext[1, m]
+        s2 += ext[2, m]
+        s3 += ext[3, m]
+    row[0, 0], row[1, 0], row[2, 0], row[3, 0] = s0, s1, s2, s3
     for i in range(w - 1):
-        s0 += ext[i + k, 0] - ext[i, 0]
-        s1 += ext[i + k, 1] - ext[i, 1]
-        s2 += ext[i + k, 2] - ext[i, 2]
-        s3 += ext[i + k, 3] - ext[i, 3]
-        row[i + 1, 0], row[i + 1, 1], row[i + 1, 2], row[i + 1, 3] = s0, s1, s2, s3
+        s0 += ext[0, i + k] - ext[0, i]
+        s1 += ext[1, i + k] - ext[1, i]
+        s2 += ext[2, i + k] - ext[2, i]
+        s3 += ext[3, i + k] - ext[3, i]
+        row[0, i + 1], row[1, i + 1], row[2, i + 1], row[3, i + 1] = s0, s1, s2, s3
 
 
 @njit(cache=True, nogil=True)
-def _row_sums(lit: np.ndarray, weighted: np.ndarray, k: int) -> np.ndarray:
-    """OpenCV's row sums (float64) of the four-channel image ``[lit, weighted]`` for a box of
-    side ``k``, each source row once (a reflected row is the same row): (h, 4 w)."""
+def _row_sums(logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], sums: np.ndarray) -> None:
+    """OpenCV's row sums (float64) of the four-channel image ``[lit, logs * lit]`` (the product
+    in ``lit``'s dtype) for boxes of sides ``sizes`` into ``sums`` (2, h, 4, w). Each row is
+    bordered once, for the larger box; the smaller one's bordered row lies within it."""
     h, w = lit.shape
-    a = k // 2
-    xs = np.empty(w + k - 1, np.uint64)  # unsigned: the gathers need no wrap-around test
-    for x in range(w + k - 1):
-        xs[x] = _reflect101(x - a, w)
-    sums = np.empty((h, w, 4), np.float64)
-    ext = np.empty((w + k - 1, 4), np.float64)
+    big = max(sizes[0], sizes[1])
+    n = w + big - 1
+    xs = np.empty(n, np.int64)
+    for x in range(n):
+        xs[x] = _reflect101(x - big // 2, w)
+    ext = np.empty((4, n), np.float64)
     for y in range(h):
-        for x in range(w + k - 1):
+        for x in range(n):
             xx = xs[x]
-            ext[x, 0], ext[x, 1] = lit[y, xx], weighted[0, y, xx]
-            ext[x, 2], ext[x, 3] = weighted[1, y, xx], weighted[2, y, xx]
-        _box_row(ext, k, sums[y])
-    return sums.reshape(h, 4 * w)
+            weight = lit[y, xx]
+            ext[0, x] = weight
+            ext[1, x], ext[2, x], ext[3, x] = logs[0, y, xx] * weight, logs[1, y, xx] * weight, logs[2, y, xx] * weight
+        for b in range(2):
+            k = sizes[b]
+            off = big // 2 - k // 2
+            _box_row(ext[:, off : off + w + k - 1], k, sums[b, y])
 
 
 @njit(cache=True, nogil=True)
@@ -154,61 +263,208 @@ def _column_step(sums: np.ndarray, t: int, k: int, total: np.ndarray, vals: np.n
     return True
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _first_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray) -> None:
+    """The box of side ``k`` over the row sums ``sums`` (h, 4, w): ``mean[c] = box(w_c) /
+    max(box(lit), eps)`` in ``mean``'s dtype for every pixel (no branch: the divisions are
+    vectorised) and ``rest`` where ``box(lit)`` is at most ``thr``."""
+    h, w = rest.shape
+    flat = sums.reshape(h, 4 * w)
+    total = np.zeros(4 * w, np.float64)
+    vals = np.empty((4, w), mean.dtype)
+    den = np.empty(w, mean.dtype)
+    for t in range(h + k - 1):
+        if not _column_step(flat, t, k, total, vals.reshape(-1)):
+            continue
+        y = t - (k - 1)
+        for i in range(w):
+            den[i] = max(vals[0, i], eps)
+            rest[y, i] = not vals[0, i] > thr
+        for c in range(3):
+            out, num = mean[c, y], vals[1 + c]
+            for i in range(w):
+                out[i] = num[i] / den[i]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _second_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray) -> int:
+    """Where ``rest`` is set, the box of side ``k`` over the row sums ``sums`` (h, 4, w): its
+    mean ``box(w_c) / max(box(lit), eps)`` into ``mean`` where ``box(lit)`` exceeds ``thr``
+    (``rest`` cleared), else 0 (``rest`` becomes 2). Returns how many pixels neither box
+    holds enough for."""
+    h, w = rest.shape
+    flat = sums.reshape(h, 4 * w)
+    total = np.zeros(4 * w, np.float64)
+    vals = np.empty((4, w), mean.dtype)
+    n = 0
+    for t in range(h + k - 1):
+        if not _column_step(flat, t, k, total, vals.reshape(-1)):
+            continue
+        y = t - (k - 1)
+        for i in range(w):
+            if not rest[y, i]:
+                continue
+            weight = vals[0, i]
+            big = weight > thr
+            den = max(weight, eps)
+            for c in range(3):
+                mean[c, y, i] = vals[1 + c, i] / den if big else 0.0
+            rest[y, i] = 0 if big else 2
+            n += not big
+    return n
+
+
 @njit(cache=True, nogil=True)
 def lit_diff(
-    logs: np.ndarray, lit: np.ndarray, weighted: np.ndarray, frame: np.ndarray, sizes: tuple[int, int],
-    thr: Any, eps: Any, diff: np.ndarray,
-) -> None:  # fmt: skip
-    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first
-    box of ``sizes`` where its weight exceeds ``thr``, overridden by the second box's where
-    its does, else ``frame`` (3,). A box's mean is ``box(weighted[c]) / max(box(lit), eps)``.
+    logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, diff: np.ndarray,
+    rest: np.ndarray,
+) -> int:  # fmt: skip
+    """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first box
+    of ``sizes`` where its weight exceeds ``thr``, else the second box's where its does, else
+    0 and ``rest`` is 2 (returned: how many; the caller subtracts the frame's mean there). A
+    box's mean is ``box(logs[c] * lit) / max(box(lit), eps)``, its weight ``box(lit)``.
 
     ``box`` is ``cv2.blur(x, (k, k))`` (``BORDER_REFLECT_101``) of the four-channel image
-    ``[lit, weighted]`` (``weighted = logs * lit``, both in the reference's dtype), bit for
-    bit: OpenCV's row sums (three or five terms left to right, else running) and running
-    column sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold
-    it to ``cv2.blur``); the comparison, the division and the difference are in that dtype.
+    ``[lit, logs * lit]`` (the product in ``lit``'s dtype, ``diff``'s), bit for bit:
+    OpenCV's row sums (three or five terms left to right, else running) and running column
+    sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold it to
+    ``cv2.blur``); the comparison, the division and the difference are in that dtype. The
+    second box's means are computed only where the first box holds too few.
     """
     h, w = lit.shape
-    mean = np.empty((3, h, w), diff.dtype)
-    for c in range(3):
-        mean[c] = frame[c]
-    vals = np.empty(4 * w, diff.dtype)
-    for n, k in enumerate(sizes):
-        sums = _row_sums(lit, weighted, k)
-        total = np.zeros(4 * w, np.float64)
-        for t in range(h + k - 1):
-            if not _column_step(sums, t, k, total, vals):
-                continue
-            y = t - (k - 1)
-            for i in range(w):
-                weight = vals[4 * i]
-                if weight > thr:
-                    den = max(weight, eps)
-                    for c in range(3):
-                        mean[c, y, i] = vals[4 * i + 1 + c] / den
-                if n == len(sizes) - 1:
-                    for c in range(3):
-                        diff[c, y, i] = logs[c, y, i] - mean[c, y, i]
+    sums = np.empty((2, h, 4, w), np.float64)
+    _row_sums(logs, lit, sizes, sums)
+    _first_box(sums[0], sizes[0], thr, eps, diff, rest)
+    n = _second_box(sums[1], sizes[1], thr, eps, diff, rest)
+    src, dst = logs.reshape(-1), diff.reshape(-1)
+    for i in range(dst.size):
+        dst[i] = src[i] - dst[i]
+    return n
 
 
 @njit(cache=True, nogil=True)
-def centre_channels(x: np.ndarray, out: np.ndarray) -> None:
-    """``out = x - x.mean(axis=0)`` for a (3, H, W) array: numpy's ``(x0 + x1) + x2`` divided by 3."""
+def minus_at(logs: np.ndarray, frame: np.ndarray, where: np.ndarray, code: int, diff: np.ndarray) -> None:
+    """``diff[c][where == code] = logs[c][where == code] - frame[c]`` (``frame`` (3,) in ``diff``'s dtype)."""
+    h, w = where.shape
+    for i in range(h):
+        for j in range(w):
+            if where[i, j] == code:
+                for c in range(3):
+                    diff[c, i, j] = logs[c, i, j] - frame[c]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def project(x: np.ndarray, d: np.ndarray, den: Any, out: np.ndarray) -> None:
+    """``out = float32((d[0] * x[0] + d[1] * x[1]) + d[2] * x[2]) / den``: the coordinate of each
+    pixel of ``x`` (3, H, W) along ``d`` (3,), products and sums in their common dtype, ``den``
+    float32: ``np.tensordot(d, x, 1).astype(np.float32) / den`` where the BLAS sums the three
+    products in this order (OpenBLAS's gemv here: the tests compare)."""
     a, b, c = x[0].reshape(-1), x[1].reshape(-1), x[2].reshape(-1)
-    oa, ob, oc = out[0].reshape(-1), out[1].reshape(-1), out[2].reshape(-1)
-    three = x.dtype.type(3.0)
+    dst = out.reshape(-1)
     for i in range(a.size):
-        m = ((a[i] + b[i]) + c[i]) / three
-        oa[i], ob[i], oc[i] = a[i] - m, b[i] - m, c[i] - m
+        dst[i] = np.float32((d[0] * a[i] + d[1] * b[i]) + d[2] * c[i]) / den
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def alpha_chroma(
+    diff: np.ndarray, d: np.ndarray, dd: Any, dc: np.ndarray, dcc: Any, alpha: np.ndarray, chroma: np.ndarray
+) -> None:  # fmt: skip
+    """Two projections (as :func:`project`) in one pass over ``diff`` (3, H, W): ``alpha`` of
+    ``diff`` on ``d`` over ``dd``; ``chroma`` of ``diff - diff.mean(axis=0)`` (numpy's
+    ``(x0 + x1) + x2`` over 3, in ``diff``'s dtype) on ``dc`` over ``dcc``."""
+    a, b, c = diff[0].reshape(-1), diff[1].reshape(-1), diff[2].reshape(-1)
+    da, ch = alpha.reshape(-1), chroma.reshape(-1)
+    three = diff.dtype.type(3.0)
+    for i in range(a.size):
+        x, y, z = a[i], b[i], c[i]
+        da[i] = np.float32((d[0] * x + d[1] * y) + d[2] * z) / dd
+        m = ((x + y) + z) / three
+        ch[i] = np.float32((dc[0] * (x - m) + dc[1] * (y - m)) + dc[2] * (z - m)) / dcc
 
 
 @njit(cache=True, nogil=True)
-def float32_over(x: np.ndarray, den: Any, out: np.ndarray) -> None:
-    """``out = x.astype(float32) / den`` (``den`` float32)."""
-    src, dst = x.reshape(-1), out.reshape(-1)
-    for i in range(src.size):
-        dst[i] = np.float32(src[i]) / den
+def next_direction(
+    diff: np.ndarray, core: np.ndarray, d: np.ndarray, fewest: int, cap: Any, new: np.ndarray
+) -> tuple[int, float]:  # fmt: skip
+    """The shadow step re-estimated over the cores: how many pixels of ``core`` ((h, w), any
+    nonzero value set) are set and, when more than ``fewest``, ``new = np.minimum(np.median(
+    diff[:, core != 0], axis=1), cap)`` (each channel by :func:`~simroad.filters._kernels.median`,
+    bit for bit) and how far it moved, ``float(np.abs(new - d).max())``, else 0.0."""
+    flat = core.reshape(-1)
+    where = np.empty(flat.size, np.int64)
+    n = 0
+    for i in range(flat.size):
+        if flat[i]:
+            where[n] = i
+            n += 1
+    if n <= fewest:
+        return n, 0.0
+    buf = np.empty(n, diff.dtype)
+    moved = 0.0
+    for c in range(3):
+        plane = diff[c].reshape(-1)
+        for m in range(n):
+            buf[m] = plane[where[m]]
+        new[c] = min(median(buf), cap)
+        moved = max(moved, abs(new[c] - d[c]))
+    return n, moved
+
+
+@njit(cache=True, nogil=True)
+def clip_inside(alpha: np.ndarray, region: np.ndarray, out: np.ndarray) -> None:
+    """``out = np.where(region > 0, np.clip(alpha, 0, 1), 0)`` in float32 (NaN stays NaN, as in np.clip)."""
+    h, w = region.shape
+    zero, one = np.float32(0.0), np.float32(1.0)
+    for i in range(h):
+        for j in range(w):
+            v = alpha[i, j]
+            v = zero if v < zero else (one if v > one else v)
+            out[i, j] = v if region[i, j] > 0 else zero
+
+
+@njit(cache=True, nogil=True)
+def _level(v: Any, top: Any) -> int:
+    """One value of :func:`~simroad.filters._kernels._quantize_row`: ``int(clip(rint(v * top), 0, top))`` in float32."""
+    x = v * top
+    x = x if x > np.float32(0.0) else np.float32(0.0)
+    x = x if x < top else top
+    return int((x + np.float32(8388608.0)) - np.float32(8388608.0))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def relit_linear(
+    full: np.ndarray, thr: Any, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, table: np.ndarray, ks: np.ndarray,
+    where: np.ndarray, lin: np.ndarray, mask: np.ndarray,
+) -> int:  # fmt: skip
+    """The pixels whose ``full`` (h, w) exceeds ``thr`` (float32), in row-major order: their flat
+    indices into ``where``, ``mask`` set, and each channel's relit linear signal ``table[q(p_c)]
+    / (1 - a * (1 - ks[c]))`` into ``lin[c]`` (float32; ``q`` as :func:`~simroad.filters._kernels.quantize_take`,
+    ``a`` the pixel's ``full``); returns how many."""
+    h, w = full.shape
+    top = np.float32(table.size - 1)
+    one = np.float32(1.0)
+    n = 0
+    for i in range(h):
+        for j in range(w):
+            a = full[i, j]
+            mask[i, j] = a > thr
+            if not a > thr:
+                continue
+            where[n] = i * w + j
+            lin[0, n] = table[_level(p0[i, j], top)] / (one - a * (one - ks[0]))
+            lin[1, n] = table[_level(p1[i, j], top)] / (one - a * (one - ks[1]))
+            lin[2, n] = table[_level(p2[i, j], top)] / (one - a * (one - ks[2]))
+            n += 1
+    return n
+
+
+@njit(cache=True, nogil=True)
+def put_at(where: np.ndarray, values: np.ndarray, p0: np.ndarray, p1: np.ndarray, p2: np.ndarray) -> None:
+    """``p_c.flat[where] = values[c]`` for three contiguous (h, w) planes."""
+    f0, f1, f2 = p0.reshape(-1), p1.reshape(-1), p2.reshape(-1)
+    for m in range(where.size):
+        i = where[m]
+        f0[i], f1[i], f2[i] = values[0, m], values[1, m], values[2, m]
 
 
 @njit(cache=True, nogil=True)

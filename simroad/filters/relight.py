@@ -46,10 +46,14 @@ rain, snow and fog frames come back bit-identical (the sky test); 1 of 48 glare
 frames at 0.4 and at 0.8 is touched, the cells' FNR/FPR unchanged. Without the sky
 test 14 of 48 clear frames held enough shadow-like pairs (repair patches, window
 bands of buildings). Cost at 320x180 (CPU time on the shared machine, ``make bench``):
-about 0.1 ms on frames without shadows (the sky test), 2-5 ms on shadow frames, most
-of it the rounds of step 3, whose box filters, medians and per-pixel steps are compiled
-(:mod:`simroad.filters._kernels`, bit for bit the numpy/OpenCV computation); the two
-projections of a round stay numpy's (BLAS).
+about 0.1 ms on frames without shadows (the sky test), about 2 ms on shadow frames (six
+frames at severity 0.7: median 3.6 ms before the loops below were compiled, December
+2026), most of it the rounds of step 3. Their box filters, projections, medians and
+per-pixel steps, the first guess of the lit pixels, the first estimate of ``d`` and the
+relighting are compiled (:mod:`simroad.filters._relight_kernels`), bit for bit the
+numpy/OpenCV computation they replace; the projections sum their three products in the
+order the BLAS numpy ships with sums them (``np.tensordot``; another BLAS may round an
+``α`` differently in its last bit).
 """
 
 from __future__ import annotations
@@ -71,19 +75,24 @@ from simroad.filters._common import (
 )
 from simroad.filters._kernels import (
     linear_halves,
-    masked_medians,
-    median,
     median_at_most,
     quantize_take,
 )
 from simroad.filters._relight_kernels import (
-    centre_channels,
+    alpha_chroma,
+    clip_inside,
     edge_pairs,
-    float32_over,
+    first_lit,
     lit_diff,
     lit_outside,
+    minus_at,
+    next_direction,
+    project,
+    put_at,
+    relit_linear,
     shadow_update,
     sky_ratios,
+    strong_median,
 )
 
 __all__ = ["relight_shadows"]
@@ -153,23 +162,32 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
 
     Both boxes and the difference in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
-    exceeds 0.15); the smaller box overrides where it holds enough.
+    exceeds 0.15), in ``lit``'s dtype; the larger box only where the smaller holds too few,
+    the frame's mean only when some pixel needs it.
     """
-    weighted = logs * lit
-    frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
-    kind = frame.dtype.type
-    diff = np.empty(logs.shape, frame.dtype)
-    lit_diff(logs, lit.astype(frame.dtype, copy=False), weighted, frame, (3 * window, window), kind(0.15),
-             kind(1e-6), diff)  # fmt: skip
+    kind = lit.dtype.type
+    diff = np.empty(logs.shape, lit.dtype)
+    rest = np.empty(lit.shape, np.uint8)
+    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest):
+        frame = (logs * lit).sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+        minus_at(logs, frame, rest, 2, diff)
     return diff
 
 
-def _projection(d: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)``: the coordinate of each
-    pixel of ``x`` (3, h, w) along ``d`` (3,) float32, (h, w) float32."""
-    out = np.empty(x.shape[1:], np.float32)
-    float32_over(np.tensordot(d, x, 1), np.float32(d @ d), out)
-    return out
+def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each pixel's shadow fraction ``α``, the coordinate of ``diff`` (3, h, w) along ``d``, and
+    its chromaticity's move along ``d``'s, blurred 3x3 and 5x5 (float32 (h, w) each).
+
+    The projections ``np.tensordot(d, x, 1).astype(np.float32) / np.float32(d @ d)`` of ``diff``
+    on ``d`` and of ``diff - diff.mean(axis=0)`` on ``d - d.mean()`` in one compiled pass
+    (:func:`~simroad.filters._relight_kernels.alpha_chroma`: the three products summed in
+    the order OpenBLAS's gemv sums them, bit for bit here).
+    """
+    dc = d - (d[0] + d[1] + d[2]) / 3  # d - d.mean(): numpy sums three values left to right
+    alpha = np.empty(diff.shape[1:], np.float32)
+    chroma = np.empty(diff.shape[1:], np.float32)
+    alpha_chroma(diff, d, np.float32(d @ d), dc, np.float32(dc @ dc), alpha, chroma)
+    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5))
 
 
 def _coverage(
@@ -181,28 +199,47 @@ def _coverage(
     lit_ok = valid.astype(np.float32)
     # First guess of the lit pixels: within half a shadow step of the brightest (along
     # d) of a wide box around them, so a shadow wider than the box is not its own reference.
-    bright = (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
-    top = cv2.dilate(bright, np.ones((3 * window, 3 * window), np.uint8))
-    lit = lit_ok * (bright >= top - _FIRST_LIT)
+    bright = np.empty(valid.shape, np.float32)
+    project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
+    lit = np.empty(valid.shape, np.float32)
+    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit)
     shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
         diff = _lit_diff(logs, lit, window)
-        alpha = cv2.blur(_projection(d, diff), (3, 3))
-        centred = np.empty_like(diff)
-        centre_channels(diff, centred)  # diff - diff.mean(axis=0)
-        chroma = cv2.blur(_projection(d - d.mean(), centred), (5, 5))
+        alpha, chroma = _alpha_chroma(diff, d)
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
         lit = np.empty(valid.shape, np.float64)
         lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
-        core = cv2.erode(shadow, core_disc).astype(bool)
-        if core.sum() <= 20:
+        new = np.empty(3, diff.dtype)  # the median (pixel - reference) over the eroded shadow cores
+        cores, moved = next_direction(diff, cv2.erode(shadow, core_disc), d, 20, diff.dtype.type(-1e-3), new)
+        if cores <= 20:
             break
-        new: np.ndarray = np.minimum(masked_medians(diff, core), -1e-3)
-        moved = float(np.abs(new - d).max())
         d = new
         if moved < 0.01:
             break
     return alpha, shadow, d
+
+
+def _relight_band(
+    planes: Planes, full: np.ndarray, top: int, k: np.ndarray, table: np.ndarray, shoulder: float, inplace: bool
+) -> tuple[Planes, np.ndarray] | None:
+    """Step 4 of the module notes on the rows from ``top`` that ``full`` (``α`` at full resolution,
+    clipped, 0 outside the grown shadows) covers: where ``α > 0.02``, linear radiance divided
+    by ``1 − α (1 − k)`` (compiled, :func:`~simroad.filters._relight_kernels.relit_linear`) and
+    re-encoded (:func:`~simroad.filters._common.linear_to_camera`, the three channels in one
+    call); (new planes, relit mask), or None when no pixel is."""
+    h, w = planes[0].shape
+    band = slice(top, top + full.shape[0])
+    where = np.empty(full.size, np.int64)
+    lin = np.empty((3, full.size), np.float32)
+    mask = np.zeros((h, w), bool)
+    n = relit_linear(full, np.float32(0.02), planes[0][band], planes[1][band], planes[2][band], table, k, where, lin,
+                     mask[band])  # fmt: skip
+    if not n:
+        return None
+    out = list(planes) if inplace else [p.copy() for p in planes]
+    put_at(where[:n], linear_to_camera(lin[:, :n], shoulder), out[0][band], out[1][band], out[2][band])
+    return out, mask
 
 
 def _relight_planes(
@@ -222,27 +259,21 @@ def _relight_planes(
     valid = (cv2.max(cv2.max(small[0], small[1]), small[2]) < _SAT) & (
         cv2.min(cv2.min(small[0], small[1]), small[2]) > _DARK
     )
-    logs = np.stack([np.log(np.maximum(cv2.blur(p, (3, 3)), _DARK)) for p in small])
+    logs = np.empty((3, *small[0].shape), np.float32)
+    for p, log in zip(small, logs):  # np.log(np.maximum(cv2.blur(p, (3, 3)), _DARK)), no temporaries
+        box = cv2.blur(p, (3, 3))
+        np.log(np.maximum(box, np.float32(_DARK), out=box), out=log)
     pairs = _edge_pairs(logs, valid, min_drop)
     if len(pairs) < min_pairs:
         return unchanged
-    strong = pairs[-pairs[:, 0] >= np.percentile(-pairs[:, 0], 75)]
-    d0 = np.array([median(strong[:, c]) for c in range(3)], strong.dtype)  # np.median(strong, axis=0)
+    d0 = strong_median(pairs, 75.0)  # the median of the strongest quarter of the pairs (by red)
     alpha, shadow, d = _coverage(logs, valid, d0, window)
     region = cv2.dilate(shadow, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * _GROW + 1, 2 * _GROW + 1)))
-    alpha = np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32)
-    full = cv2.resize(alpha, (w, 2 * hs), interpolation=cv2.INTER_LINEAR)
-    sel = full > 0.02
-    if not sel.any():
-        return unchanged
-    a = full[sel]
-    out = list(planes) if inplace else [p.copy() for p in planes]
-    for c, k in enumerate(np.exp(d).astype(np.float32)):
-        lin = _linearise(planes[c][top : top + 2 * hs][sel].reshape(1, -1), table).reshape(-1)
-        out[c][top : top + 2 * hs][sel] = linear_to_camera(lin / (1.0 - a * (1.0 - k)), shoulder)
-    mask = np.zeros((h, w), bool)
-    mask[top : top + 2 * hs] = sel
-    return out, mask
+    inside = np.empty(alpha.shape, np.float32)
+    clip_inside(alpha, region, inside)  # np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0)
+    full = cv2.resize(inside, (w, 2 * hs), interpolation=cv2.INTER_LINEAR)
+    relit = _relight_band(planes, full, top, np.exp(d).astype(np.float32), table, shoulder, inplace)
+    return unchanged if relit is None else relit
 
 
 def relight_shadows(

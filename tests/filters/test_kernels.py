@@ -255,7 +255,13 @@ def test_lit_diff_is_the_per_channel_computation():
 
     rng = np.random.default_rng(13)
     logs = np.log(rng.uniform(2e-3, 1.0, (3, 54, 160))).astype(np.float32)
-    for lit in ((rng.random((54, 160)) < 0.7).astype(np.float32), (rng.random((54, 160)) < 0.3) * np.float64(1)):
+    sparse = np.zeros((54, 160))
+    sparse[10:20, 30:45] = 1.0  # one lit patch: pixels far from it fall back to the frame's mean
+    for lit in (
+        (rng.random((54, 160)) < 0.7).astype(np.float32),
+        (rng.random((54, 160)) < 0.3) * np.float64(1),
+        sparse,
+    ):
         expect = np.repeat((logs * lit).sum(axis=(1, 2))[:, None, None] / max(float(lit.sum()), 1.0), 54, 1)
         expect = np.repeat(expect, 160, 2)
         for size in (93, 31):
@@ -317,7 +323,7 @@ def test_linear_halves_is_the_area_halving_of_the_linear_plane():
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-@pytest.mark.parametrize("k", [3, 5, 9, 32, 93])
+@pytest.mark.parametrize("k", [3, 5, 9, 32, 31])
 def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
     from simroad.filters._relight_kernels import lit_diff
 
@@ -325,17 +331,148 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
     for h, w in ((54, 160), (5, 40), (30, 7)):
         logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
         logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
-        lit = (rng.random((h, w)) < 0.6).astype(dtype)
-        weighted = logs * lit
-        frame = np.array([0.5, -0.25, 0.125], dtype)
-        mean = np.repeat(np.repeat(frame[:, None, None], h, 1), w, 2)
-        sums = cv2.blur(np.dstack([lit, *weighted]), (k, k))
-        ok = sums[..., 0] > dtype(0.15)
-        for c in range(3):
-            np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
-        got = np.empty((3, h, w), dtype)
-        lit_diff(logs, lit, weighted, frame, (k,), dtype(0.15), dtype(1e-6), got)
-        np.testing.assert_array_equal(got, logs - mean)
+        for density in (0.6, 0.15, 0.05):  # across the columns, from none: each box holds enough, or neither
+            lit = (rng.random((h, w)) < density * np.linspace(0.0, 2.0, w)).astype(dtype)
+            mean = np.zeros((3, h, w), dtype)
+            held = np.zeros((h, w), bool)
+            for size in (3 * k, k):  # the smaller box overrides the larger where it holds enough
+                sums = cv2.blur(np.dstack([lit, *(logs * lit)]), (size, size))
+                ok = sums[..., 0] > dtype(0.15)
+                held |= ok
+                for c in range(3):
+                    np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
+            got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
+            assert lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest) == (~held).sum()
+            np.testing.assert_array_equal(rest == 2, ~held)
+            np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
+
+
+@pytest.mark.parametrize("dtypes", [(np.float32, np.float32), (np.float32, np.float64), (np.float64, np.float64)])
+def test_projections_are_the_three_products_summed_in_order(dtypes):
+    from simroad.filters._relight_kernels import alpha_chroma, project
+
+    rng = np.random.default_rng(18)
+    kind_d, kind_x = dtypes
+    x = rng.normal(-0.3, 0.5, (3, 54, 160)).astype(kind_x)
+    x[:, 0, :5] = 0.0
+    d = np.array([-0.9, -0.7, -0.45], kind_d) * kind_d(rng.uniform(0.5, 1.5))
+    dc = d - d.mean()
+    dd, dcc = np.float32(d @ d), np.float32(dc @ dc)
+
+    def reference(v, y, den):
+        return ((v[0] * y[0] + v[1] * y[1]) + v[2] * y[2]).astype(np.float32) / den
+
+    alpha, chroma = np.empty((54, 160), np.float32), np.empty((54, 160), np.float32)
+    alpha_chroma(x, d, dd, dc, dcc, alpha, chroma)
+    np.testing.assert_array_equal(alpha, reference(d, x, dd))
+    np.testing.assert_array_equal(chroma, reference(dc, x - x.mean(axis=0), dcc))
+    out = np.empty((54, 160), np.float32)
+    project(x, d, -dd, out)
+    np.testing.assert_array_equal(out, -reference(d, x, dd))  # x / -y is -(x / y)
+    # np.tensordot (BLAS) sums the same products in the same order (bit for bit with this
+    # machine's OpenBLAS); another BLAS may round differently, so within a tolerance here
+    tensordot = np.tensordot(d, x, 1).astype(np.float32) / dd
+    np.testing.assert_allclose(alpha, tensordot, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(chroma, np.tensordot(dc, x - x.mean(axis=0), 1).astype(np.float32) / dcc,
+                               rtol=1e-6, atol=1e-6)  # fmt: skip
+
+
+def test_strong_median_is_the_median_of_the_pairs_over_the_percentile():
+    from simroad.filters._relight_kernels import _percentile, strong_median
+
+    rng = np.random.default_rng(19)
+    for k in range(400):
+        n = int(rng.integers(1, 300))
+        pairs = -rng.random((n, 3), dtype=np.float32) * np.float32(rng.uniform(0.5, 3.0))
+        if k % 3 == 1:
+            pairs = (np.round(pairs * 7) / 7).astype(np.float32)  # ties
+        if k % 3 == 2:  # neighbours an ulp or a few apart: the interpolation's rounding shows
+            pairs[:, 0] = np.float32(-1.5) - np.arange(n, dtype=np.float32) * np.spacing(np.float32(1.5)) * (k % 4)
+        drop = -pairs[:, 0]
+        for q in (75.0, 50.0, 90.0, 0.0, 100.0):
+            assert _percentile(drop.copy(), q) == np.percentile(drop, q)
+        expect = np.median(pairs[drop >= np.percentile(drop, 75)], axis=0)
+        np.testing.assert_array_equal(strong_median(pairs, 75.0), expect)
+
+
+@pytest.mark.parametrize("kinds", [(np.float32, np.float32), (np.float64, np.float32), (np.float64, np.float64)])
+def test_next_direction_is_the_capped_median_over_the_cores(kinds):
+    from simroad.filters._relight_kernels import next_direction
+
+    kind, kind_d = kinds
+    rng = np.random.default_rng(20)
+    diff = (np.round(rng.normal(-0.5, 0.4, (3, 20, 30)) * 16) / 16).astype(kind)  # ties
+    for k in range(40):
+        core = (rng.random((20, 30)) < rng.uniform(0.0, 0.5)).astype(np.uint8) * np.uint8(1 + k % 2)
+        d = rng.normal(-0.5, 0.2, 3).astype(kind_d)
+        new = np.full(3, np.nan, kind)
+        count, moved = next_direction(diff, core, d, 20, kind(-1e-3), new)
+        assert count == np.count_nonzero(core)
+        if count <= 20:
+            assert moved == 0.0 and np.isnan(new).all()
+            continue
+        expect = np.minimum(np.median(diff[:, core != 0], axis=1), -1e-3)
+        np.testing.assert_array_equal(new, expect)
+        assert moved == float(np.abs(expect - d).max())
+
+
+def test_relit_pixels_are_the_numpy_relighting():
+    from simroad.filters._common import linear_to_camera
+    from simroad.filters._relight_kernels import clip_inside, put_at, relit_linear
+    from simroad.filters.relight import _linear_table
+
+    rng = np.random.default_rng(21)
+    table = _linear_table(1.0)
+    for _k in range(10):
+        alpha = rng.normal(0.3, 0.6, (27, 40)).astype(np.float32)
+        alpha[0, :3] = [np.nan, -0.0, 1.0]
+        region = (rng.random((27, 40)) < 0.6).astype(np.uint8)
+        inside = np.empty_like(alpha)
+        clip_inside(alpha, region, inside)
+        np.testing.assert_array_equal(inside, np.where(region > 0, np.clip(alpha, 0.0, 1.0), 0.0).astype(np.float32))
+        full = cv2.resize(np.nan_to_num(inside), (80, 54), interpolation=cv2.INTER_LINEAR)
+        full[3, :3] = [np.float32(0.02), np.nextafter(np.float32(0.02), np.float32(1)), 0.9999]
+        planes = [rng.random((54, 80), dtype=np.float32) for _ in range(3)]
+        ks = rng.uniform(0.2, 0.6, 3).astype(np.float32)
+        where, lin, mask = (
+            np.empty(full.size, np.int64),
+            np.empty((3, full.size), np.float32),
+            np.empty(full.shape, bool),
+        )
+        n = relit_linear(full, np.float32(0.02), *planes, table, ks, where, lin, mask)
+        sel = full > 0.02
+        np.testing.assert_array_equal(mask, sel)
+        assert n == sel.sum()
+        np.testing.assert_array_equal(where[:n], np.flatnonzero(sel))
+        expect = [p.copy() for p in planes]
+        a = full[sel]
+        for c, k in enumerate(ks):
+            ref = _linearise_reference(planes[c][sel], table) / (1.0 - a * (1.0 - k))
+            np.testing.assert_array_equal(lin[c, :n], ref)
+            expect[c][sel] = linear_to_camera(ref, 1.0)
+        put_at(where[:n], linear_to_camera(lin[:, :n], 1.0), *planes)  # cv2.pow: a function of the value alone
+        np.testing.assert_array_equal(np.stack(planes), np.stack(expect))
+
+
+def test_first_lit_is_the_dilation_test():
+    from simroad.filters._relight_kernels import first_lit
+
+    rng = np.random.default_rng(22)
+    for h, w, k in ((54, 160, 93), (54, 160, 9), (20, 31, 4), (7, 5, 30), (1, 12, 3), (33, 40, 1)):
+        bright = (np.round(rng.normal(0.0, 1.0, (h, w)) * 4) / 4).astype(np.float32)  # ties
+        lit_ok = (rng.random((h, w)) < 0.8).astype(np.float32)
+        top = cv2.dilate(bright, np.ones((k, k), np.uint8))
+        out = np.empty((h, w), np.float32)
+        first_lit(bright, lit_ok, k, np.float32(0.8), out)
+        np.testing.assert_array_equal(out, lit_ok * (bright >= top - 0.8))
+
+
+@pytest.mark.parametrize("kind", [np.float32, np.float64])
+def test_the_mean_of_three_is_numpys(kind):
+    """relight's ``d - (d[0] + d[1] + d[2]) / 3`` for ``d - d.mean()``: numpy sums three values left to right."""
+    rng = np.random.default_rng(23)
+    for d in (-rng.random((5000, 3)) * rng.uniform(1e-3, 3.0, (5000, 1))).astype(kind):
+        assert (d[0] + d[1] + d[2]) / 3 == d.mean()
 
 
 @pytest.mark.parametrize("power", [1 / 2.2, 2.2, 0.5, 3.0])
