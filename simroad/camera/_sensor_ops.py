@@ -299,7 +299,7 @@ def add_noise_dn(
         Rounded, saturated digital numbers.
     """
     if normal is None or (not shot and read_noise_e == 0.0):
-        return cv2.add(signal_dn, 0.0, dtype=cv2.CV_16U)  # type: ignore[call-overload]
+        return cv2.add(signal_dn, 0.0, dtype=cv2.CV_16U)  # type: ignore[call-overload,unused-ignore]
     k = float(gain_dn_per_e)
     floor = (k * float(read_noise_e)) ** 2
     var = cv2.addWeighted(signal_dn, k if shot else 0.0, signal_dn, 0.0, floor)

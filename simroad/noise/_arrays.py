@@ -29,7 +29,7 @@ def fast_exp(x: np.ndarray) -> np.ndarray:
     x = np.asarray(x, dtype=np.float32)
     if x.size == 0:  # no ground in view: OpenCV refuses empty arrays
         return x.copy()
-    return cv2.exp(cv2.max(x, -80.0))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    return cv2.exp(cv2.max(x, -80.0))  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
 
 
 def rgb_scalar(value: np.ndarray | float) -> tuple[float, float, float, float]:

@@ -162,7 +162,7 @@ def splat_streaks(
     inside = (iu >= 0) & (iu < W) & (iv >= 0) & (iv < H)
     sums = np.bincount((iv * W + iu)[inside], weights=beta[owner][inside], minlength=H * W)
     acc = sums.astype(np.float32).reshape(H, W)
-    return cv2.min(acc, 1.0, dst=acc)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    return cv2.min(acc, 1.0, dst=acc)  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
 
 
 def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:
@@ -177,6 +177,6 @@ def blend(lin: np.ndarray, beta: np.ndarray, radiance: np.ndarray) -> None:
     radiance : ndarray (3,)
         Particle radiance I_E (linear).
     """
-    d = cv2.subtract(lin, rgb_scalar(radiance))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    d = cv2.subtract(lin, rgb_scalar(radiance))  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
     d *= cv2.cvtColor(beta, cv2.COLOR_GRAY2RGB)
     lin -= d

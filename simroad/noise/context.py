@@ -226,7 +226,7 @@ class FrameState:
     def scene_mean(self) -> np.ndarray:
         """Mean linear radiance per channel of the current image as exposed (values
         clipped at white, as the sensor records them), over every 4th row, (3,)."""
-        return np.array(cv2.mean(cv2.min(self.lin[::4], 1.0))[:3], dtype=np.float32)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+        return np.array(cv2.mean(cv2.min(self.lin[::4], 1.0))[:3], dtype=np.float32)  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
 
     def sky_radiance(self) -> np.ndarray:
         """Mean linear radiance of the sky pixels (every 4th row), (3,); white if no

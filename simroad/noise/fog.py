@@ -69,9 +69,9 @@ def koschmieder(
     d = np.minimum(depth, np.float32(sky_path_m))
     t = fast_exp(d * np.float32(-beta_ext))
     a = rgb_scalar(airlight)
-    cv2.subtract(lin, a, dst=lin)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    cv2.subtract(lin, a, dst=lin)  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
     lin *= gray3(t)
-    cv2.add(lin, a, dst=lin)  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    cv2.add(lin, a, dst=lin)  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
 
 
 @dataclass(frozen=True)

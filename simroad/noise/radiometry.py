@@ -73,7 +73,7 @@ def linear_to_srgb(lin: np.ndarray, dtype: np.dtype | type = np.uint8) -> np.nda
     """
     _check_frame("lin", lin, ("float32", "float64"))
     # x ** (1/γ) as exp(log(x)/γ): twice as fast as cv2.pow
-    x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload]  # OpenCV's stubs omit scalar operands
+    x = cv2.log(cv2.max(lin, 1e-7))  # type: ignore[call-overload,unused-ignore]  # OpenCV's stubs omit scalar operands
     np.multiply(x, np.float32(1.0 / GAMMA), out=x)
     x = cv2.exp(x)
     if np.dtype(dtype) == np.uint8:
