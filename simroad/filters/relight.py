@@ -78,14 +78,13 @@ from simroad.filters._kernels import (
     median_at_most,
     quantize_take,
 )
+from simroad.filters._lit_boxes import lit_diff, minus_at
 from simroad.filters._relight_kernels import (
     alpha_chroma,
     clip_inside,
     edge_pairs,
     first_lit,
-    lit_diff,
     lit_outside,
-    minus_at,
     next_direction,
     project,
     put_at,
@@ -160,7 +159,7 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
-    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._relight_kernels.lit_diff`:
+    Both boxes and the difference in one compiled pass (:func:`~simroad.filters._lit_boxes.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
     exceeds 0.15), in ``lit``'s dtype; the larger box only where the smaller holds too few,
     the frame's mean only when some pixel needs it.

@@ -325,7 +325,7 @@ def test_linear_halves_is_the_area_halving_of_the_linear_plane():
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("k", [3, 5, 9, 32, 31])
 def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
-    from simroad.filters._relight_kernels import lit_diff
+    from simroad.filters._lit_boxes import lit_diff
 
     rng = np.random.default_rng(k)
     for h, w in ((54, 160), (5, 40), (30, 7)):
