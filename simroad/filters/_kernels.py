@@ -52,8 +52,8 @@ __all__ = [
 #: The float32 value of each 8-bit level as :func:`~simroad.filters._common.to_planes` makes it.
 LEVELS = np.arange(256, dtype=np.float32) * np.float32(1.0 / 255.0)
 LEVELS.setflags(write=False)
-#: Powers ``cv2.pow`` was checked to be non-decreasing for on [MONOTONE_FROM, 1], on
-#: Intel and AMD EPYC CPUs (the haze step's gamma). ``1 / 2.2`` is not on every CPU: on
+#: Powers ``cv2.pow`` was checked to be non-decreasing for on [MONOTONE_FROM, 1] (the haze
+#: step's gamma: every float32 on an Intel CPU, the kernel test's million values on an AMD EPYC). ``1 / 2.2`` is not on every CPU: on
 #: an AMD EPYC, OpenCV's vectorised ``pow`` falls by an ulp between neighbouring values.
 MONOTONE_POWERS = (2.2,)
 MONOTONE_FROM = 1e-4

@@ -143,8 +143,8 @@ def _near_veil(floor: np.ndarray, clear_floor: float) -> bool:
     A veil ``1 - exp(-beta d)`` grows with distance, so the floor of a veiled frame
     climbs row by row from the bottom; a few rows lifted by one bright thing (a white
     car's flank, the road narrowing between pale verges) barely move a monotone fit,
-    which must average them with every row above. The fit rises at the middle row
-    (its lowest point on the lower half) or nowhere there.
+    which must average them with every row above. Of the lower half's rows the fit is
+    highest at the top one, the middle row of the frame: the test reads that row.
     """
     fit = isotonic_regression(floor[::-1].astype(np.float64), increasing=True).x[::-1]
     return bool(fit[floor.shape[0] // 2] > clear_floor)
