@@ -73,7 +73,7 @@ from simroad.filters._kernels import (
     LEVELS,
     MONOTONE_FROM,
     MONOTONE_POWERS,
-    apply_row_tables,
+    apply_shared_tables,
     area4_floor,
     level_codes,
     median,
@@ -118,15 +118,20 @@ def _dehaze_rows(p: np.ndarray, out: np.ndarray, n: int, gain: np.ndarray, lift:
     """Rows ``[:n]`` of ``out``: ``clip(p**gamma gain + lift, 0, 1)**(1 / gamma)``, one gain and lift per row (n, 1).
 
     On a plane of 8-bit levels (the detector's frames) each row takes at most 256
-    values: they are computed once per row (``cv2.pow`` depends on the value alone)
-    and looked up. Any other plane is computed as written.
+    values: they are computed once per run of rows with the same gain and lift (``t``
+    is constant over runs of rows where the floor is flat or ``t_min`` caps it; ``cv2.pow``
+    depends on the value alone) and looked up. Any other plane is computed as written.
     """
     codes = np.empty((n, p.shape[1]), np.uint8)
     if level_codes(p[:n], codes):
-        tables = _level_powers(gamma).reshape(1, -1) * gain
-        tables += lift
+        # Start of each run of equal (gain, lift) rows, and each row's run.
+        new = np.ones(n, bool)
+        new[1:] = (gain[1:, 0] != gain[:-1, 0]) | (lift[1:, 0] != lift[:-1, 0])
+        run = np.cumsum(new) - 1
+        tables = _level_powers(gamma).reshape(1, -1) * gain[new]
+        tables += lift[new]
         np.clip(tables, 0.0, 1.0, out=tables)
-        apply_row_tables(codes, pow_sparing_zeros(tables, 1.0 / gamma), out[:n])
+        apply_shared_tables(codes, pow_sparing_zeros(tables, 1.0 / gamma), run, out[:n])
         return
     lin = cv2.pow(p[:n], gamma)
     lin *= gain
