@@ -68,7 +68,15 @@ import numpy as np
 from scipy.optimize import isotonic_regression
 
 from simroad._validation import check_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, pow_sparing_zeros, to_planes
+from simroad.filters._common import (
+    FilterResult,
+    Planes,
+    check_filter_image,
+    from_planes,
+    gate_preview,
+    pow_sparing_zeros,
+    to_planes,
+)
 from simroad.filters._kernels import (
     LEVELS,
     MONOTONE_FROM,
@@ -189,11 +197,17 @@ def _transmission(
 
 
 def _haze_planes(
-    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float, inplace: bool = False
-) -> tuple[Planes, np.ndarray]:
+    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float, inplace: bool = False,
+    preview: Planes | None = None,
+) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows).
-    ``inplace``: the corrected rows are written into the given planes (the caller owns them)."""
+    ``inplace``: the corrected rows are written into the given planes (the caller owns them).
+    ``preview``: :func:`~simroad.filters._common.gate_preview` of the planes when the caller has
+    it (a frame larger than ``GATE_SIZE`` without veil on its preview is returned as it is)."""
     mask = np.zeros(planes[0].shape, bool)
+    preview = gate_preview(planes) if preview is None else preview
+    if preview is not None and _transmission(preview, percentile, t_min, tolerance, float(gamma)) is None:
+        return planes, mask  # no veil on the preview
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
         return planes, mask  # no veil: the planes themselves
