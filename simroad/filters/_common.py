@@ -35,6 +35,7 @@ __all__ = [
     "clip_planes",
     "crop_box",
     "from_planes",
+    "gate_preview",
     "planes_to_uint8",
     "to_planes",
 ]
@@ -101,6 +102,29 @@ def from_planes(planes: Planes, dtype: np.dtype) -> np.ndarray:
     out = np.stack(planes, axis=-1)
     np.clip(out, 0.0, 1.0, out=out)
     return out.astype(dtype, copy=False)
+
+
+#: Largest frame (width, height) whose weather gates look at the frame itself. A larger
+#: frame's gates first look at a preview of at most this size (:func:`gate_preview`).
+GATE_SIZE = (320, 180)
+
+
+def gate_preview(planes: Planes) -> Planes | None:
+    """The planes reduced (``cv2.INTER_AREA``) by the smallest integer factor that fits them
+    in :data:`GATE_SIZE`, or None when they fit already.
+
+    A filter's weather gate is one decision for the whole frame (a blue sky, a veil over
+    the near rows, a sun's lobe, a colour cast); on a frame larger than :data:`GATE_SIZE`
+    the filters take it first on this preview, and only when the preview shows the
+    weather on the frame itself (which then decides, so a filter that acts acts as it
+    would have). A frame at :data:`GATE_SIZE` or smaller is gated on itself, as before.
+    """
+    h, w = planes[0].shape
+    factor = max(-(-w // GATE_SIZE[0]), -(-h // GATE_SIZE[1]))
+    if factor <= 1:
+        return None
+    size = (max(1, w // factor), max(1, h // factor))
+    return [cv2.resize(p, size, interpolation=cv2.INTER_AREA) for p in planes]
 
 
 def planes_to_uint8(planes: Planes) -> list[np.ndarray]:

@@ -30,6 +30,7 @@ __all__ = [
     "MONOTONE_FROM",
     "MONOTONE_POWERS",
     "apply_row_tables",
+    "apply_shared_tables",
     "area4_floor",
     "clipped_top",
     "count_below",
@@ -98,6 +99,16 @@ def apply_row_tables(codes: np.ndarray, tables: np.ndarray, out: np.ndarray) -> 
     for i in range(h):
         for j in range(w):
             out[i, j] = tables[i, codes[i, j]]
+
+
+@njit(cache=True, nogil=True)
+def apply_shared_tables(codes: np.ndarray, tables: np.ndarray, table_of: np.ndarray, out: np.ndarray) -> None:
+    """``out[r, j] = tables[table_of[r], codes[r, j]]``: each row's 8-bit codes through its table (k, 256)."""
+    h, w = codes.shape
+    for i in range(h):
+        table = tables[table_of[i]]
+        for j in range(w):
+            out[i, j] = table[codes[i, j]]
 
 
 @njit(cache=True, nogil=True)

@@ -29,6 +29,7 @@ from simroad.filters._common import (
     check_odd_size,
     crop_box,
     from_planes,
+    gate_preview,
     linear_to_camera,
     to_planes,
 )
@@ -198,6 +199,18 @@ def _to_linear(planes: Planes, shoulder: float) -> tuple[np.ndarray, np.ndarray,
     return lin, codes, rows
 
 
+def _find(
+    planes: Planes, fine: int, wide: int, min_lift: float, top: float, shoulder: float, scale: int
+) -> tuple[tuple[np.ndarray, np.ndarray] | None, int]:
+    """:func:`_lobe` of the rows from ``top`` down, reduced ``scale`` times; and the first of those rows."""
+    h, w = planes[0].shape
+    r0 = min(int(top * h), h - 1)
+    sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
+    small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
+    wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
+    return _lobe([camera_to_linear(p, shoulder) for p in small], fine, wide_small, min_lift), r0
+
+
 def _glare_planes(
     planes: Planes,
     *,
@@ -210,15 +223,19 @@ def _glare_planes(
     shoulder: float,
     scale: int = _SCALE,
     inplace: bool = False,
+    preview: Planes | None = None,
 ) -> tuple[Planes, np.ndarray]:
     """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask).
-    ``inplace``: the re-exposed frame is written into the given planes (the caller owns them)."""
+    ``inplace``: the re-exposed frame is written into the given planes (the caller owns them).
+    ``preview``: as for :func:`~simroad.filters.haze._haze_planes` (the lobe is first looked
+    for on the preview, ``wide`` scaled to its width)."""
     h, w = planes[0].shape
-    r0 = min(int(top * h), h - 1)
-    sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
-    small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
-    wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
-    found = _lobe([camera_to_linear(p, shoulder) for p in small], fine, wide_small, min_lift)
+    preview = gate_preview(planes) if preview is None else preview
+    if preview is not None:
+        narrow = max(3, wide * preview[0].shape[1] // w)
+        if _find(preview, fine, narrow, min_lift, top, shoulder, scale)[0] is None:
+            return planes, np.zeros((h, w), bool)  # no sun's lobe on the preview
+    found, r0 = _find(planes, fine, wide, min_lift, top, shoulder, scale)
     if found is None:
         return planes, np.zeros((h, w), bool)  # no sun's lobe: identity (the planes themselves)
     amount, t = found

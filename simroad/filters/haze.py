@@ -68,12 +68,20 @@ import numpy as np
 from scipy.optimize import isotonic_regression
 
 from simroad._validation import check_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, pow_sparing_zeros, to_planes
+from simroad.filters._common import (
+    FilterResult,
+    Planes,
+    check_filter_image,
+    from_planes,
+    gate_preview,
+    pow_sparing_zeros,
+    to_planes,
+)
 from simroad.filters._kernels import (
     LEVELS,
     MONOTONE_FROM,
     MONOTONE_POWERS,
-    apply_row_tables,
+    apply_shared_tables,
     area4_floor,
     level_codes,
     median,
@@ -118,15 +126,20 @@ def _dehaze_rows(p: np.ndarray, out: np.ndarray, n: int, gain: np.ndarray, lift:
     """Rows ``[:n]`` of ``out``: ``clip(p**gamma gain + lift, 0, 1)**(1 / gamma)``, one gain and lift per row (n, 1).
 
     On a plane of 8-bit levels (the detector's frames) each row takes at most 256
-    values: they are computed once per row (``cv2.pow`` depends on the value alone)
-    and looked up. Any other plane is computed as written.
+    values: they are computed once per run of rows with the same gain and lift (``t``
+    is constant over runs of rows where the floor is flat or ``t_min`` caps it; ``cv2.pow``
+    depends on the value alone) and looked up. Any other plane is computed as written.
     """
     codes = np.empty((n, p.shape[1]), np.uint8)
     if level_codes(p[:n], codes):
-        tables = _level_powers(gamma).reshape(1, -1) * gain
-        tables += lift
+        # Start of each run of equal (gain, lift) rows, and each row's run.
+        new = np.ones(n, bool)
+        new[1:] = (gain[1:, 0] != gain[:-1, 0]) | (lift[1:, 0] != lift[:-1, 0])
+        run = np.cumsum(new) - 1
+        tables = _level_powers(gamma).reshape(1, -1) * gain[new]
+        tables += lift[new]
         np.clip(tables, 0.0, 1.0, out=tables)
-        apply_row_tables(codes, pow_sparing_zeros(tables, 1.0 / gamma), out[:n])
+        apply_shared_tables(codes, pow_sparing_zeros(tables, 1.0 / gamma), run, out[:n])
         return
     lin = cv2.pow(p[:n], gamma)
     lin *= gain
@@ -184,11 +197,17 @@ def _transmission(
 
 
 def _haze_planes(
-    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float, inplace: bool = False
-) -> tuple[Planes, np.ndarray]:
+    planes: Planes, *, percentile: float, t_min: float, tolerance: float, gamma: float, inplace: bool = False,
+    preview: Planes | None = None,
+) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`remove_haze` on float32 planes in [0, 1]; (new planes, mask of the corrected rows).
-    ``inplace``: the corrected rows are written into the given planes (the caller owns them)."""
+    ``inplace``: the corrected rows are written into the given planes (the caller owns them).
+    ``preview``: :func:`~simroad.filters._common.gate_preview` of the planes when the caller has
+    it (a frame larger than ``GATE_SIZE`` without veil on its preview is returned as it is)."""
     mask = np.zeros(planes[0].shape, bool)
+    preview = gate_preview(planes) if preview is None else preview
+    if preview is not None and _transmission(preview, percentile, t_min, tolerance, float(gamma)) is None:
+        return planes, mask  # no veil on the preview
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:
         return planes, mask  # no veil: the planes themselves

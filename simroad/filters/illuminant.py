@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, to_planes
+from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, gate_preview, to_planes
 from simroad.filters._kernels import LEVELS, level_rows, row_runs
 
 __all__ = ["CLEAR_CHROMATICITY", "CLEAR_MEAN_CHROMATICITY", "remove_colour_cast"]
@@ -92,11 +92,17 @@ def _cast_gains(planes: Planes, rows: float, box: Any, target: tuple[float, floa
 
 
 def _colour_cast_planes(
-    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float, inplace: bool = False
-) -> tuple[Planes, np.ndarray]:
+    planes: Planes, *, rows: float, chromaticity: Any, target: Any, gamma: float, inplace: bool = False,
+    preview: Planes | None = None,
+) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`remove_colour_cast` on float32 planes (options already checked, as for
     every filter core); (new planes, mask of changed pixels). ``inplace``: the balanced
-    values are written into the given planes (the caller owns them)."""
+    values are written into the given planes (the caller owns them). ``preview``: as for
+    :func:`~simroad.filters.haze._haze_planes` (a large frame whose preview lies in the box is
+    returned as it is)."""
+    preview = gate_preview(planes) if preview is None else preview
+    if preview is not None and _cast_gains(preview, rows, chromaticity, target, gamma) is None:
+        return planes, np.zeros(planes[0].shape, bool)  # no cast on the preview
     gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:
         return planes, np.zeros(planes[0].shape, bool)  # inside the box: the planes themselves

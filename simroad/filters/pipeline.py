@@ -29,7 +29,15 @@ from typing import Any
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_image
-from simroad.filters._common import FILTER_DTYPES, FilterResult, Planes, clip_planes, from_planes, to_planes
+from simroad.filters._common import (
+    FILTER_DTYPES,
+    FilterResult,
+    Planes,
+    clip_planes,
+    from_planes,
+    gate_preview,
+    to_planes,
+)
 from simroad.filters.glare import _glare_planes, remove_glare
 from simroad.filters.haze import _haze_planes, remove_haze
 from simroad.filters.highlights import _highlights_planes, remove_highlights
@@ -67,7 +75,8 @@ _CORES: dict[Callable[..., FilterResult], Callable[..., tuple[Planes, np.ndarray
 }
 
 
-#: Cores that can write their result into the planes they are given (``inplace=True``).
+#: Cores that can write their result into the planes they are given (``inplace=True``)
+#: and take a shared :func:`~simroad.filters._common.gate_preview` of them (``preview=``).
 _IN_PLACE = frozenset({_colour_cast_planes, _glare_planes, _haze_planes, _relight_planes})
 
 
@@ -259,14 +268,19 @@ def _filter_planes_masks(
     caller hands them over) -- instead of new ones.
     """
     out, masks = planes, {}
+    preview, previewed = None, None  # gate_preview of the planes ``previewed``, made once for every gate
     for name in filters:
         before, acted = out, None
         for step in FILTER_REGISTRY[name].steps(variant):
             core = _CORES[step.function]
+            extra: dict[str, Any] = {}
+            if core in _IN_PLACE:  # the cores that act in place gate on a preview of a large frame
+                if previewed is not out:
+                    preview, previewed = gate_preview(out), out
+                extra["preview"] = preview
             if core in _IN_PLACE and (owned or out is not planes):
-                out, mask = core(out, **step.options, inplace=True)
-            else:
-                out, mask = core(out, **step.options)
+                extra["inplace"] = True
+            out, mask = core(out, **step.options, **extra)
             acted = mask if acted is None else acted | mask
         if out is not before:
             clip_planes(out)

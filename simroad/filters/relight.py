@@ -70,6 +70,7 @@ from simroad.filters._common import (
     camera_to_linear,
     check_filter_image,
     from_planes,
+    gate_preview,
     linear_to_camera,
     to_planes,
 )
@@ -243,13 +244,17 @@ def _relight_band(
 
 def _relight_planes(
     planes: Planes, *, shoulder: float, rows: float, sky_rows: float, min_sky_blue: float,
-    min_drop: float, min_pairs: int, window: int, inplace: bool = False,
+    min_drop: float, min_pairs: int, window: int, inplace: bool = False, preview: Planes | None = None,
 ) -> tuple[Planes, np.ndarray]:  # fmt: skip
     """Core of :func:`relight_shadows` on float32 planes; (new planes, relit mask). ``inplace``:
-    the relit pixels are written into the given planes (the caller owns them)."""
+    the relit pixels are written into the given planes (the caller owns them). ``preview``: as
+    for :func:`~simroad.filters.haze._haze_planes` (step 1, the sky test, first on the preview)."""
     h, w = planes[0].shape
     unchanged = (planes, np.zeros((h, w), bool))  # no shadow to relight: the planes themselves
     table = _linear_table(shoulder)
+    preview = gate_preview(planes) if preview is None else preview
+    if preview is not None and _sky_not_blue(preview, table, sky_rows, min_sky_blue):
+        return unchanged  # no blue sky on the preview
     top = min(h - 2, int(h * (1.0 - rows)))
     hs, ws = (h - top) // 2, w // 2
     if hs < 2 * _SHIFT or ws < 2 * _SHIFT or _sky_not_blue(planes, table, sky_rows, min_sky_blue):
