@@ -47,7 +47,8 @@ from simroad.filters._kernels import (
 
 __all__ = ["remove_glare"]
 
-_SCALE = 4  # the lobe is estimated on an image this many times smaller
+_SCALE = 4  # the lobe is estimated on an image this many times smaller than a _REF_WIDTH-wide frame
+_REF_WIDTH = 320  # frame width the sizes in pixels refer to; wider frames scale them (1280: x4)
 _MIN_TINT = 0.2  # smallest relative channel of the sun's colour (Rayleigh at 5 degrees: ~0.45)
 _FLANK = (0.3, 0.7)  # the lobe's flank, as fractions of its peak lift, gives its colour
 _MAX_GAIN = 4.0  # largest re-exposure, in linear gain
@@ -56,7 +57,7 @@ _MAX_GAIN = 4.0  # largest re-exposure, in linear gain
 _TAU_RGB = np.array([0.05, 0.10, 0.23])  # Rayleigh optical depth of the clear atmosphere at ~620, 550, 460 nm
 _AIR_MASS = (1.0, 38.0)  # sun overhead .. on the horizon (Kasten & Young)
 _MIN_WARM = 0.6  # the lobe's R - B lift (99th percentile) over the floor's level: a warm sun
-_MIN_CONCENTRATION = 0.42  # share of the lift's column profile within +-3/80 of the width of its peak
+_MIN_CONCENTRATION = 0.33  # share of the lift's column profile within +-3/80 of the width of its peak
 _MIN_ROWS = 0.78  # share of the lit rows whose largest lift lies in that band
 _MIN_SYMMETRY = 0.3  # median ratio of the lift 5/80 of the width left and right of the peak (a bell, not a step)
 _CLIP_SPREAD = 6.0 / 255.0  # a clipped pixel: channels within this of each other ...
@@ -202,9 +203,16 @@ def _to_linear(planes: Planes, shoulder: float) -> tuple[np.ndarray, np.ndarray,
 def _find(
     planes: Planes, fine: int, wide: int, min_lift: float, top: float, shoulder: float, scale: int
 ) -> tuple[tuple[np.ndarray, np.ndarray] | None, int]:
-    """:func:`_lobe` of the rows from ``top`` down, reduced ``scale`` times; and the first of those rows."""
+    """:func:`_lobe` of the rows from ``top`` down, and the first of those rows.
+
+    ``scale`` and ``wide`` are in pixels of a :data:`_REF_WIDTH`-wide frame: a frame
+    ``k`` times wider is reduced ``k * scale`` times with an opening ``k * wide`` long,
+    so the lobe is looked for on the same reduced image (80 columns) at every size.
+    """
     h, w = planes[0].shape
     r0 = min(int(top * h), h - 1)
+    scale = max(1, round(scale * w / _REF_WIDTH))
+    wide = max(3, round(wide * w / _REF_WIDTH))
     sh, sw = max(1, (h - r0) // scale), max(1, w // scale)
     small = [cv2.resize(p[r0:], (sw, sh), interpolation=cv2.INTER_AREA) for p in planes]
     wide_small = max(3, min((wide // scale) | 1, 2 * sw + 1))
@@ -228,12 +236,11 @@ def _glare_planes(
     """Core of :func:`remove_glare` on float32 planes; returns (new planes, glare mask).
     ``inplace``: the re-exposed frame is written into the given planes (the caller owns them).
     ``preview``: as for :func:`~simroad.filters.haze._haze_planes` (the lobe is first looked
-    for on the preview, ``wide`` scaled to its width)."""
+    for on the preview; :func:`_find` scales to either width)."""
     h, w = planes[0].shape
     preview = gate_preview(planes) if preview is None else preview
     if preview is not None:
-        narrow = max(3, wide * preview[0].shape[1] // w)
-        if _find(preview, fine, narrow, min_lift, top, shoulder, scale)[0] is None:
+        if _find(preview, fine, wide, min_lift, top, shoulder, scale)[0] is None:
             return planes, np.zeros((h, w), bool)  # no sun's lobe on the preview
     found, r0 = _find(planes, fine, wide, min_lift, top, shoulder, scale)
     if found is None:
@@ -276,10 +283,11 @@ def remove_glare(
     1. Decode the frame to the camera's linear signal: the display encoding (gamma 2.2) undone, then the inverse
        of the response curve's shoulder ``z = (1 + k) y / (1 + k y)``
        (:mod:`simroad.camera.sensor`).
-    2. On the rows from ``top`` down (the ground), at quarter resolution, open each
-       channel with a ``fine`` square (lane paint, texture) and then with a ``wide``
-       horizontal line (the floor); the lift over the floor is what a band narrower
-       than ``wide`` adds -- the specular lobe of eq. 23. Its colour ``t`` is the
+    2. On the rows from ``top`` down (the ground), reduced to 80 columns (a quarter of a
+       320-pixel-wide frame), open each channel with a ``fine`` square (lane paint,
+       texture) and then with a ``wide`` horizontal line (the floor); the lift over
+       the floor is what a band narrower than ``wide`` adds -- the specular lobe of
+       eq. 23. Its colour ``t`` is the
        channels' median lift where the common lift is in its top 5 % (a low sun is
        warm), and the lobe ``B = min_c lift_c / t_c``, lightly smoothed.
     3. If the lobe's 99th percentile is below ``min_lift`` times the floor's median
@@ -294,10 +302,12 @@ def remove_glare(
     image : ndarray, (H, W, 3), uint8 or float32/float64 in [0, 1]
         RGB image.
     fine : int, optional
-        Side of the small opening, in quarter-resolution pixels, odd, in [1, 31].
+        Side of the small opening, in pixels of the reduced image (80 columns: a quarter
+        of a 320-pixel-wide frame), odd, in [1, 31].
     wide : int, optional
-        Length of the horizontal opening in full-resolution pixels, in [3, 4095]: a
-        lobe is narrower, the road and its roadside are wider.
+        Length of the horizontal opening, in pixels of a 320-pixel-wide frame (a wider
+        frame's opening is as long relative to its width: 107 is a third of it), in
+        [3, 4095]: a lobe is narrower, the road and its roadside are wider.
     min_lift : float, optional
         Glare is present when the lobe's 99th percentile exceeds this many times the
         floor's level, in (0, 100].

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -145,3 +146,37 @@ def test_a_rendered_low_sun_ahead_is_found_and_removed():
     out, mask = remove_glare(img)
     assert mask[100:].mean() > 0.02 and not mask[:70].any()
     assert out[mask].mean() < img[mask].mean()  # the lobe is gone
+
+
+def _with_sidewalks(y: np.ndarray) -> np.ndarray:
+    """Pale grey sidewalks (40 px, narrower than the ``wide`` opening) either side of the asphalt."""
+    y = y.copy()
+    y[90:, 75:115] += 0.2
+    y[90:, 205:245] += 0.2
+    return y
+
+
+def test_a_lobe_between_pale_sidewalks_is_found():
+    # A town street: the sidewalks lift over the floor as well and take a third of the
+    # lift's column profile from the lobe (0.38 of it stays within +-3/80 of the
+    # width of the peak); the lobe is still a warm bell on one column in every lit row.
+    lit, lobe = _glare_signal(peak=2.5)
+    out, mask = remove_glare(_display(_with_sidewalks(lit)))
+    assert mask[120:, 160].all() and not mask[:, :20].any()
+    # the sidewalks alone are grey steps, not a sun's lobe
+    u8 = (_display(_with_sidewalks(_clean_signal())) * 255 + 0.5).astype(np.uint8)
+    out, mask = remove_glare(u8)
+    assert not mask.any()
+    np.testing.assert_array_equal(out, u8)
+
+
+def test_the_lobe_is_found_at_every_frame_size():
+    # The same scene at 320x180 and 1280x720: the filter looks for the lobe on the same
+    # reduced image (its ``wide`` opening is a third of the width at every size).
+    lit, _ = _glare_signal(peak=2.5)
+    small = _display(lit)
+    big = _display(cv2.resize(lit, (4 * W, 4 * H), interpolation=cv2.INTER_LINEAR))
+    m_small, m_big = remove_glare(small).mask, remove_glare(big).mask
+    assert m_small.any() and m_big.any()
+    shrunk = cv2.resize(m_big.view(np.uint8), (W, H), interpolation=cv2.INTER_AREA) > 0
+    assert (shrunk != m_small).mean() < 0.02
