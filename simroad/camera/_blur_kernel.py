@@ -74,6 +74,15 @@ def decode_rounded(values, table, out):
         decode(part, table, dst[start:end])
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _index(v):
+    """The integer part of ``v`` (a float >= 0) as an unsigned index (no wrap-around
+    test when indexing). Converted through int64, one instruction: x86 without
+    AVX-512 has no conversion to uint64, and the direct one takes a compare, a
+    subtraction and a select; the same integer for every index below 2**63."""
+    return np.uint64(np.int64(v))
+
+
 @njit(cache=True, nogil=True, fastmath=_FM, inline="always")
 def _blur_length(s, du, dv):
     """Blur length ``L = s |p - e|`` (pixels) for expansion ``s`` at offset (``du``, ``dv``)
@@ -146,15 +155,15 @@ def _stays_on_face(face_id, fid, x, y, lx, ly):
     zero = np.float32(0.0)
     # The end's four texels (clamped like the taps; the integer part of a
     # non-negative float is its floor). Unsigned indices: no wrap-around test.
-    x0 = np.uint64(min(max(np.float32(x) + lx, zero), wm))
-    y0 = np.uint64(min(max(np.float32(y) + ly, zero), hm))
+    x0 = _index(min(max(np.float32(x) + lx, zero), wm))
+    y0 = _index(min(max(np.float32(y) + ly, zero), hm))
     x1, y1 = min(x0 + np.uint64(1), np.uint64(w - 1)), min(y0 + np.uint64(1), np.uint64(h - 1))
     if face_id[y0, x0] != fid or face_id[y1, x1] != fid or face_id[y0, x1] != fid or face_id[y1, x0] != fid:
         return False
     for k in range(1, 4):  # anything standing in between
         t = np.float32(0.25 * k)
-        qx = np.uint64(min(max(np.float32(x) + t * lx + np.float32(0.5), zero), wm))
-        qy = np.uint64(min(max(np.float32(y) + t * ly + np.float32(0.5), zero), hm))
+        qx = _index(min(max(np.float32(x) + t * lx + np.float32(0.5), zero), wm))
+        qy = _index(min(max(np.float32(y) + t * ly + np.float32(0.5), zero), hm))
         if face_id[qy, qx] != fid:
             return False
     return True
@@ -286,8 +295,8 @@ def _level_row(img, y, j, xs, ns, fxs, fys, k0, k1, tmp):
         x = xs[k]
         qx = min(max(np.float32(x) + step * fxs[k], np.float32(0.0)), wm)
         qy = min(max(yf + step * fys[k], np.float32(0.0)), hm)
-        x0, y0 = np.uint64(qx), np.uint64(qy)  # unsigned: no wrap-around test per index
-        ax, ay = qx - np.float32(x0), qy - np.float32(y0)
+        x0, y0 = _index(qx), _index(qy)  # unsigned: no wrap-around test per index
+        ax, ay = qx - np.float32(np.int64(x0)), qy - np.float32(np.int64(y0))  # small integers: exact
         x1, y1 = min(x0 + np.uint64(1), np.uint64(w - 1)), min(y0 + np.uint64(1), np.uint64(h - 1))
         i = k - k0
         for c in range(3):

@@ -47,13 +47,17 @@ def _expose_row(
     addition is associative, so the sum is the same whatever order the vectorised loop
     adds in (a float sum with ``reassoc`` was not: a freshly compiled kernel and one
     loaded from numba's cache differed in the last bit, and the auto-exposure with it).
+    Each term is truncated to int32 first (``s`` is at most full scale, 65535 DN, so
+    ``256 s`` fits): the same integer as a direct conversion to int64, but AVX2 converts
+    float32 to int32 eight at a time and has no vector conversion to int64, which left
+    the loop half scalar.
     """
     sign, k_shot, floor = noise
     g, top, ks, fl, sg = np.float32(scale), np.float32(cap), np.float32(k_shot), np.float32(floor), np.float32(sign)
     total = np.int64(0)
     for i in range(buf.size):
         s = min(buf[i] * vig[i] * g, top)
-        total += np.int64(s * np.float32(_METER_ONE))
+        total += np.int64(np.int32(s * np.float32(_METER_ONE)))
         s += math.sqrt(ks * s + fl) * sg * normal[i]
         dn[i] = np.int32(min(max(s, np.float32(0.0)), top) + np.float32(0.5))
     return total  # type: ignore[return-value]  # an int64 scalar
