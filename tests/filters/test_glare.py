@@ -160,7 +160,7 @@ def test_a_lobe_between_pale_sidewalks_is_found():
     # A town street: the sidewalks lift over the floor as well and take a third of the
     # lift's column profile from the lobe (0.38 of it stays within +-3/80 of the
     # width of the peak); the lobe is still a warm bell on one column in every lit row.
-    lit, lobe = _glare_signal(peak=2.5)
+    lit, _ = _glare_signal(peak=2.5)
     out, mask = remove_glare(_display(_with_sidewalks(lit)))
     assert mask[120:, 160].all() and not mask[:, :20].any()
     # the sidewalks alone are grey steps, not a sun's lobe
