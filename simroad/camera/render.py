@@ -210,11 +210,10 @@ class CameraRenderer:
         cam = self.camera
         cam.set_pose(*pose)
         fp = self.footprint_world()
+        lo, hi = fp.min(axis=0), fp.max(axis=0)
         # The window reaches two tiles ahead: driving forward re-assembles it seldom.
         lead = 2.0 * self.world.tile_m
-        win = self.world.window(
-            *fp.min(axis=0), *fp.max(axis=0), lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2]))
-        )
+        win = self.world.window(*lo, *hi, lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2])))
         c = cam.config
         r0 = self._r0
         # Rows above r0 are sky; the ground's warps write every pixel of the rows below.
@@ -228,8 +227,8 @@ class CameraRenderer:
             self._draw_ground(win, pose, motion_m, rgb, material, road)
         depth = cam.depth.copy()  # each frame its own (callers keep them)
         ground_vehicles = self._in_view(vehicles)
-        m = fp.min(axis=0) - _OBJECT_MARGIN_M
-        M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
+        m = lo - _OBJECT_MARGIN_M
+        M_ = hi + _OBJECT_MARGIN_M
         parts = [self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)]
         face_id, faces = self._painter.paint_parts(parts, rgb, material, depth, road=road)
         if ground_vehicles:  # on the ground the faces leave in view
