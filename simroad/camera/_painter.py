@@ -23,6 +23,7 @@ from collections import OrderedDict
 from collections.abc import Sequence
 
 import numpy as np
+from numba import njit
 
 from simroad.camera import _raster
 from simroad.camera.geometry import PinholeCamera
@@ -144,7 +145,9 @@ class MeshPainter:
         A = np.zeros((3, 3))
         A[:2, :2] = cam._R_we2.T
         A[2, 2] = -1.0
-        o = (np.append(-cam._pos @ cam._R_we2.T, 0.0) - cam._cam_ego) @ cam._R_ego.T
+        p = np.zeros(3)
+        p[:2] = -cam._pos @ cam._R_we2.T
+        o = (p - cam._cam_ego) @ cam._R_ego.T
         self._Mo = (np.ascontiguousarray(A @ cam._R_ego.T), np.ascontiguousarray(o))
         self._pose_key = key
         return self._Mo
@@ -217,8 +220,7 @@ class MeshPainter:
         """
         parts = [p for p in parts if len(p)]
         fid, used = self._paint(parts, rgb, material, depth, None, remap=True, road=road)
-        sel = [m.select(np.flatnonzero(u)) for m, u in zip(parts, used)]
-        return fid, _concat_keep_offsets(sel, parts)
+        return fid, _drawn_faces(parts, used)
 
     # ------------------------------------------------------------------ core
     def _paint(self, parts, rgb, material, depth, colours, *, remap: bool, road: np.ndarray | None = None):
@@ -264,15 +266,44 @@ class MeshPainter:
         return fid, used
 
 
-def _concat_keep_offsets(sel: list[Mesh], parts: list[Mesh]) -> Mesh:
-    """:meth:`Mesh.concat` of ``sel`` with the solid offsets ``parts`` would get."""
-    if not sel:
+def _drawn_faces(parts: list[Mesh], used: list[np.ndarray]) -> Mesh:
+    """The faces ``used`` (bool (F,) per part) of ``parts``, part after part, solid ids
+    offset as :meth:`Mesh.concat` would offset the whole parts: one compiled gather
+    into arrays of the types :meth:`Mesh.select` and ``np.concatenate`` would give."""
+    counts = [int(np.count_nonzero(u)) for u in used]
+    n = sum(counts)
+    if not n:
         return Mesh.empty()
-    off, out = 0, []
-    for s, p in zip(sel, parts):
-        if len(s):
-            out.append(Mesh(s.vertices, s.counts, s.albedo, s.material, s.normal, s.solid + off))
+    drawn = [p for p, k in zip(parts, counts) if k]
+    out = [
+        np.empty((n, *getattr(drawn[0], f).shape[1:]), np.result_type(*(getattr(p, f) for p in drawn)))
+        for f in Mesh.__dataclass_fields__
+    ]
+    k, off = 0, 0
+    for p, u, c in zip(parts, used, counts):
+        if c:
+            # the ids' type and wrap-around of ``p.solid + off``
+            k = _gather(
+                u, p.vertices, p.counts, p.albedo, p.material, p.normal, p.solid, p.solid.dtype.type(off), k, *out
+            )
         off += int(p.solid.max()) + 1
-    if not out:
-        return Mesh.empty()
-    return Mesh(*(np.concatenate([getattr(m, f) for m in out]) for f in Mesh.__dataclass_fields__))
+    return Mesh(*out)
+
+
+@njit(cache=True, nogil=True)
+def _gather(used, vertices, counts, albedo, material, normal, solid, off, k, o_v, o_c, o_a, o_m, o_n, o_s):  # pragma: no cover  # fmt: skip
+    """Copy the faces ``used`` into the ``o_*`` arrays from row ``k`` on (solid ids
+    plus ``off``); returns the next row."""
+    for f in range(used.shape[0]):
+        if used[f]:
+            for i in range(vertices.shape[1]):
+                for a in range(3):
+                    o_v[k, i, a] = vertices[f, i, a]
+            for a in range(3):
+                o_a[k, a] = albedo[f, a]
+                o_n[k, a] = normal[f, a]
+            o_c[k] = counts[f]
+            o_m[k] = material[f]
+            o_s[k] = solid[f] + off
+            k += 1
+    return k

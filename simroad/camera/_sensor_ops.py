@@ -247,11 +247,12 @@ class NoiseTile:
         shape = (self.height + self.pad[0], self.width + self.pad[1], 3)
         self.field = rng.standard_normal(shape, dtype=np.float32)
         self._last: tuple[int, int] | None = None
+        self._high = np.array([self.pad[0] + 1, self.pad[1] + 1, 2])  # offsets' bounds (exclusive)
 
     def offsets(self, rng: np.random.Generator) -> tuple[int, int, float]:
         """The next frame's window: row and column offset into ``field`` and its sign (+1 or -1)."""
         while True:
-            oy, ox, flip = (int(k) for k in rng.integers(0, (self.pad[0] + 1, self.pad[1] + 1, 2)))
+            oy, ox, flip = (int(k) for k in rng.integers(0, self._high))
             if (oy, ox) != self._last:
                 break
         self._last = (oy, ox)

@@ -129,9 +129,8 @@ class PinholeCamera:
         self._R_we2 = np.array([[ch, sh], [-sh, ch]])
         self._pos = np.array([x, y], dtype=float)
         # Homography world ground (x, y, 1) -> image (homogeneous)
-        A = np.eye(3)
-        A[:2, :2] = self._R_we2
-        A[:2, 2] = -self._R_we2 @ self._pos  # world -> ego ground
+        tx, ty = (-self._R_we2 @ self._pos).tolist()  # world -> ego ground
+        A = np.array([[ch, sh, tx], [-sh, ch, ty], [0.0, 0.0, 1.0]])
         self.H_image_from_world = self._K_ego @ A
         self.H_world_from_image = np.linalg.inv(self.H_image_from_world)
 

@@ -210,11 +210,10 @@ class CameraRenderer:
         cam = self.camera
         cam.set_pose(*pose)
         fp = self.footprint_world()
+        lo, hi = fp.min(axis=0), fp.max(axis=0)
         # The window reaches two tiles ahead: driving forward re-assembles it seldom.
         lead = 2.0 * self.world.tile_m
-        win = self.world.window(
-            *fp.min(axis=0), *fp.max(axis=0), lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2]))
-        )
+        win = self.world.window(*lo, *hi, lead=(lead * math.cos(pose[2]), lead * math.sin(pose[2])))
         c = cam.config
         r0 = self._r0
         # Rows above r0 are sky; the ground's warps write every pixel of the rows below.
@@ -228,8 +227,7 @@ class CameraRenderer:
             self._draw_ground(win, pose, motion_m, rgb, material, road)
         depth = cam.depth.copy()  # each frame its own (callers keep them)
         ground_vehicles = self._in_view(vehicles)
-        m = fp.min(axis=0) - _OBJECT_MARGIN_M
-        M_ = fp.max(axis=0) + _OBJECT_MARGIN_M
+        m, M_ = lo - _OBJECT_MARGIN_M, hi + _OBJECT_MARGIN_M
         parts = [self.world.objects(m[0], m[1], M_[0], M_[1]), vehicles_mesh(ground_vehicles)]
         face_id, faces = self._painter.paint_parts(parts, rgb, material, depth, road=road)
         if ground_vehicles:  # on the ground the faces leave in view
@@ -285,10 +283,11 @@ class CameraRenderer:
         start = blur[0] if blur is not None else c.height
         heading = (math.cos(pose[2]), math.sin(pose[2]))
         for level, a, b in self._bands:  # colour from the mip level that fits the rows
+            SM = _level_scale(level) @ M  # (S @ M) @ T, as S @ M @ T evaluates
             for lo, hi in ((a, min(b, start)), (max(a, start), b)):
                 if hi <= lo:
                     continue
-                Ma = _level_scale(level) @ M @ _row_shift(lo - r0)
+                Ma = SM @ _row_shift(lo - r0)
                 dst = rgb[lo:hi]
                 # A mip level's texel is the pixel's footprint (that is how the level
                 # is chosen): a smear under half of it is lost in the pixel.
@@ -330,7 +329,8 @@ class CameraRenderer:
         scale = 2.0**-level / win.texel_m
         shift = (-motion_m * heading[0] * scale, -motion_m * heading[1] * scale)
         margin = abs(shift[0]) + abs(shift[1]) + 3.0
-        (tx0, ty0), (tx1, ty1) = t.min(axis=0).tolist(), t.max(axis=0).tolist()
+        tx, ty = t.T.tolist()
+        tx0, ty0, tx1, ty1 = min(tx), min(ty), max(tx), max(ty)
         sh, sw = src.shape[:2]
         x0 = min(max(math.floor(tx0 - margin), 0), sw - 1)
         x1 = min(max(math.ceil(tx1 + margin) + 1, x0 + 1), sw)

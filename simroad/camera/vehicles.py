@@ -265,26 +265,33 @@ def vehicles_mesh(boxes: Sequence, paints: np.ndarray | None = None) -> Mesh:
         paints = np.array([_box_paint(v) for v in boxes], dtype=np.float32)
     parts = []
     for dims, idx in groups.items():
-        verts, counts, albedo, normal, solid, n_solids = _template(*dims)
+        verts, counts, albedo, normal, _, _ = _template(*dims)
         pose = np.array([[boxes[i].x, boxes[i].y, boxes[i].heading] for i in idx])
         N, F = len(idx), len(counts)
         wv = np.empty((N * F, MAX_VERTICES, 3))
         wn = np.empty((N * F, 3))
         alb = np.empty((N * F, 3), dtype=np.float32)
         _place(verts, normal, albedo, pose, np.cos(pose[:, 2]), np.sin(pose[:, 2]), paints[idx], wv, wn, alb)
-        parts.append(
-            Mesh(
-                wv,
-                np.tile(counts, N),
-                alb,
-                np.full(N * F, VEHICLE, dtype=np.uint8),
-                wn,
-                (solid[None, :] + n_solids * np.arange(N)[:, None]).reshape(-1),
-            )
-        )
+        n_counts, n_material, n_solid = _fixed_faces(dims, N)
+        parts.append(Mesh(wv, n_counts, alb, n_material, wn, n_solid))
     if len(parts) == 1:
         return parts[0]
     return Mesh.concat(parts)
+
+
+@lru_cache(maxsize=64)
+def _fixed_faces(dims: tuple[float, float, float], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Counts, material and solid ids of ``n`` vehicles of size ``dims`` (read-only:
+    they do not move with the vehicles, so frames share them)."""
+    _, counts, _, _, solid, n_solids = _template(*dims)
+    out = (
+        np.tile(counts, n),
+        np.full(n * len(counts), VEHICLE, dtype=np.uint8),
+        (solid[None, :] + n_solids * np.arange(n)[:, None]).reshape(-1),
+    )
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 @njit(cache=True, nogil=True)
