@@ -174,7 +174,7 @@ def _acted_counts(images: list[np.ndarray]) -> str:
 def _per_weather(det: RoadDetector, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
     """The full detector on every weather's frames, interleaved; one table row per weather."""
     candidates = {
-        (weather, k): (lambda img=img: det.predict(img))
+        (weather, k): (lambda img=img: det.reset().predict(img))
         for weather, imgs in frames.items()
         for k, img in enumerate(imgs)
     }
@@ -232,7 +232,7 @@ def _literal_ratio(det: RoadDetector, literal, frames: dict[str, list[np.ndarray
     target = TARGET_MS[size]
     for weather in ("clear", "glare") if size == (320, 180) else ("clear",):
         img = frames[weather][-1]
-        times = interleaved({_TABLE: lambda img=img: det.predict(img), _LITERAL: lambda img=img: literal(img)},
+        times = interleaved({_TABLE: lambda img=img: det.reset().predict(img), _LITERAL: lambda img=img: literal(img)},
                             repeats=repeats, warmup=1 if size == (320, 180) else 0)  # fmt: skip
         title = f"full detector vs literal: {size[0]}x{size[1]}, one core, {len(det.svm_.dual_coef)} support vectors, "
         print(table(title + f"{weather} frame", times, baseline=_LITERAL, target_ms={_TABLE: target}), flush=True)
@@ -250,7 +250,7 @@ def _agreement(det, images, ground=None) -> tuple[float, float]:
     and the morphology the same)."""
     whole, on_ground = [], []
     for img in images:
-        same = det.predict(img) == det.predict(img, exact=True)
+        same = det.reset().predict(img) == det.reset().predict(img, exact=True)
         whole.append(same.mean())
         on_ground.append(same[ground].mean() if ground is not None else same.mean())
     return 100.0 * float(np.mean(whole)), 100.0 * float(np.mean(on_ground))

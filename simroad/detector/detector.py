@@ -66,6 +66,11 @@ __all__ = [
 #: for FNR 1.5 % -> about 2 % (README, "The shipped model").
 DEFAULT_MAX_SAMPLES = 16000
 DEFAULT_NONROAD_WEIGHT = 2.0
+#: Frames after the light filter last removed a sun's lobe during which the improved
+#: detector still takes the road from region growth (20 frames: 4 s at 5 Hz). A sun
+#: that cast a lobe is still up when the car turns and the lobe leaves the view, or
+#: when the lobe test misses a frame; the exposure it forced lasts as well.
+GLARE_MEMORY_FRAMES = 20
 _NOT_FITTED = (
     "This %(name)s is not fitted yet. Call fit(images, masks) first, or get a trained "
     "one with RoadDetector.pretrained() or RoadDetector.load(path)."
@@ -240,6 +245,13 @@ class RoadDetector(BaseEstimator):
         -------
         ndarray, bool, (H, W)
             True on road.
+
+        Notes
+        -----
+        Frames are a sequence: with the ``"improved"`` variant, the light filter and
+        ``morphology``, the road comes from region growth on the frame where the light
+        filter removes a sun's lobe and on the :data:`GLARE_MEMORY_FRAMES` frames after
+        it (:meth:`reset` forgets; the drivers call it per episode).
         """
         if not hasattr(self, "lut_"):  # check_is_fitted's test, without its per-call tag machinery
             raise NotFittedError(_NOT_FITTED % {"name": type(self).__name__})
@@ -264,12 +276,36 @@ class RoadDetector(BaseEstimator):
                 # Under a sun's lobe the colour classifier fails beside it (the exposure
                 # dropped; lit verges look like road): the road is what grows from the
                 # ego's road across smooth colour, and the lobe where road lies both sides.
+                self._since_lobe: int | None = 0
                 lobe = lobe if ground is None else lobe & ground
                 grown = _grow(_as_uint8(image), mask | lobe, ground, GROW_TOLERANCE, 2)
                 if grown.any():
                     mask = grown | _across_lobe(grown, lobe)
+            elif lobe is not None and self._remembers_lobe() and mask.any():
+                grown = _grow(_as_uint8(image), mask, ground, GROW_TOLERANCE, 2)  # the sun is still up
+                if grown.any():
+                    mask = grown
             mask = _fill_holes(mask)
         return mask
+
+    def _remembers_lobe(self) -> bool:
+        """Count one more frame without a lobe; True while within :data:`GLARE_MEMORY_FRAMES` of the last one."""
+        since = getattr(self, "_since_lobe", None)
+        if since is None:
+            return False
+        self._since_lobe = since + 1
+        return self._since_lobe <= GLARE_MEMORY_FRAMES
+
+    def reset(self) -> RoadDetector:
+        """Forget past frames (the drivers call it at the start of every episode).
+
+        The improved detector with the light filter remembers for
+        :data:`GLARE_MEMORY_FRAMES` frames that it saw a sun's lobe (and keeps taking the
+        road from region growth); frames scored one at a time
+        (:func:`~simroad.detector.registry.predict_alone`) are predicted after a reset.
+        """
+        self._since_lobe = None
+        return self
 
     def set_camera(self, camera: Any) -> RoadDetector:
         """Tell the detector the calibrated camera its frames come from (or None to forget it).

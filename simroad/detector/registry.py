@@ -63,6 +63,7 @@ __all__ = [
     "describe",
     "load_detector",
     "parse_detector_options",
+    "predict_alone",
     "register",
     "resolve_factory",
 ]
@@ -339,6 +340,16 @@ def describe(detector: Any) -> dict[str, str]:
         "name": str(name) if name is not None else type(detector).__name__,
         "version": str(version) if version is not None else "",
     }
+
+
+def predict_alone(detector: Any, image: np.ndarray) -> np.ndarray:
+    """The detector's bool (H, W) mask of one frame on its own: its memory of past
+    frames cleared first (its ``reset()``, where it has one), as when frames from
+    different episodes are scored one at a time."""
+    reset = getattr(detector, "reset", None)
+    if callable(reset):
+        reset()
+    return check_mask(detector.predict(image), image.shape[:2], detector)
 
 
 def check_mask(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
-from simroad.detector.registry import check_mask
+from simroad.detector.registry import predict_alone
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.training import HELD_OUT_SEEDS
@@ -179,7 +179,7 @@ def evaluate_frames(
         det = factory(tuple(filters))
         score, whole = MaskScore(), MaskScore()
         for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
-            pred = check_mask(det.predict(img), img.shape[:2], det)
+            pred = predict_alone(det, img)
             score.update(pred, gt, valid=valid)
             whole.update(pred, gt)
         s, w = score.summary(), whole.pooled()
@@ -310,8 +310,8 @@ def qualitative_figure(
         img, gt = fs.images[0], fs.masks[0]
         panels = (
             (overlay_frame(img, gt, None), f"{noise} (severity {severity:g}), GT outline"),
-            (overlay_frame(img, gt, plain.predict(img)), "detector without filters"),
-            (overlay_frame(img, gt, full.predict(img)), "detector with filters"),
+            (overlay_frame(img, gt, predict_alone(plain, img)), "detector without filters"),
+            (overlay_frame(img, gt, predict_alone(full, img)), "detector with filters"),
         )
         for ax, (im, title) in zip(axes[row], panels):
             ax.imshow(im)

@@ -25,6 +25,7 @@ from collections.abc import Callable, Iterable, Sequence
 import numpy as np
 
 from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.detector.registry import predict_alone
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import FrameSet, collect_frames
 from simroad.experiments.stats import COUNT_KEYS, paired_pooled_difference
@@ -72,7 +73,7 @@ def _score(detector, frames: FrameSet) -> tuple[dict[str, float], np.ndarray]:
     per episode (rows in order of first appearance, columns ``COUNT_KEYS``)."""
     scores: dict[tuple[str, int], MaskScore] = {}
     for episode, image, gt, valid in zip(_episodes(frames), frames.images, frames.masks, frames.valid):
-        scores.setdefault(episode, MaskScore()).update(detector.predict(image), gt, valid=valid)
+        scores.setdefault(episode, MaskScore()).update(predict_alone(detector, image), gt, valid=valid)
     counts = np.array([[getattr(s, k) for k in COUNT_KEYS] for s in scores.values()], dtype=np.int64)
     counts = counts.reshape(-1, len(COUNT_KEYS))
     pooled = rates_from_counts(*(int(c) for c in counts.sum(axis=0)))

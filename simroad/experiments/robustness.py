@@ -23,7 +23,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
 from simroad.camera import CameraConfig, PinholeCamera
-from simroad.detector.registry import check_mask
+from simroad.detector.registry import predict_alone
 from simroad.experiments.frames import FrameSet
 from simroad.filters import format_filters
 from simroad.metrics.mask import MaskScore
@@ -102,7 +102,7 @@ def weathered(
 def _score(frames: FrameSet, detector: Any) -> dict[str, float]:
     score = MaskScore()
     for img, gt, valid in zip(frames.images, frames.masks, frames.valid, strict=True):
-        score.update(check_mask(detector.predict(img), img.shape[:2], detector), gt, valid=valid)
+        score.update(predict_alone(detector, img), gt, valid=valid)
     s = score.summary()
     return {"frames": score.n_frames, **{k: float(s[k]) for k in ("fnr", "fpr", "iou")}}
 
