@@ -158,7 +158,7 @@ def _second_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, 
 @njit(cache=True, nogil=True)
 def lit_diff(
     logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, diff: np.ndarray,
-    rest: np.ndarray,
+    rest: np.ndarray, sums: np.ndarray,
 ) -> int:  # fmt: skip
     """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first box
     of ``sizes`` where its weight exceeds ``thr``, else the second box's where its does, else
@@ -170,10 +170,9 @@ def lit_diff(
     OpenCV's row sums (three or five terms left to right, else running) and running column
     sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold it to
     ``cv2.blur``); the comparison, the division and the difference are in that dtype. The
-    second box's means are computed only where the first box holds too few.
+    second box's means are computed only where the first box holds too few. ``sums``
+    (2, h, 4, w) float64: work space for the row sums of the two boxes.
     """
-    h, w = lit.shape
-    sums = np.empty((2, h, 4, w), np.float64)
     _row_sums(logs, lit, sizes, sums)
     _first_box(sums[0], sizes[0], thr, eps, diff, rest)
     n = _second_box(sums[1], sizes[1], thr, eps, diff, rest)

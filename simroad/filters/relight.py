@@ -85,6 +85,7 @@ from simroad.filters._relight_kernels import (
     clip_inside,
     edge_pairs,
     first_lit,
+    first_lit_work,
     lit_outside,
     next_direction,
     project,
@@ -94,6 +95,7 @@ from simroad.filters._relight_kernels import (
     sky_ratios,
     strong_median,
 )
+from simroad.filters._workspace import scratch
 
 __all__ = ["relight_shadows"]
 
@@ -166,10 +168,12 @@ def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
     the frame's mean only when some pixel needs it.
     """
     kind = lit.dtype.type
-    diff = np.empty(logs.shape, lit.dtype)
-    rest = np.empty(lit.shape, np.uint8)
-    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest):
-        frame = (logs * lit).sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+    diff = scratch("relight diff", logs.shape, lit.dtype)  # valid until the next call: the caller keeps none
+    rest = scratch("relight rest", lit.shape, np.uint8)
+    sums = scratch("relight row sums", (2, lit.shape[0], 4, lit.shape[1]), np.float64)
+    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest, sums):
+        weighted = np.multiply(logs, lit, out=scratch("relight weighted logs", diff.shape, diff.dtype))
+        frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
         minus_at(logs, frame, rest, 2, diff)
     return diff
 
@@ -202,7 +206,8 @@ def _coverage(
     bright = np.empty(valid.shape, np.float32)
     project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     lit = np.empty(valid.shape, np.float32)
-    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit)
+    work = scratch("relight first lit", (first_lit_work(valid.shape[0], valid.shape[1], 3 * window),), np.float32)
+    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit, work)
     shadow = np.empty(valid.shape, np.uint8)
     for _ in range(_ROUNDS):
         diff = _lit_diff(logs, lit, window)

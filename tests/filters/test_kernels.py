@@ -342,7 +342,8 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
                 for c in range(3):
                     np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
             got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
-            assert lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest) == (~held).sum()
+            sums = np.empty((2, h, w * 4), np.float64).reshape(2, h, 4, w)
+            assert lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest, sums) == (~held).sum()
             np.testing.assert_array_equal(rest == 2, ~held)
             np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
 
@@ -455,7 +456,7 @@ def test_relit_pixels_are_the_numpy_relighting():
 
 
 def test_first_lit_is_the_dilation_test():
-    from simroad.filters._relight_kernels import first_lit
+    from simroad.filters._relight_kernels import first_lit, first_lit_work
 
     rng = np.random.default_rng(22)
     for h, w, k in ((54, 160, 93), (54, 160, 9), (20, 31, 4), (7, 5, 30), (1, 12, 3), (33, 40, 1)):
@@ -463,7 +464,7 @@ def test_first_lit_is_the_dilation_test():
         lit_ok = (rng.random((h, w)) < 0.8).astype(np.float32)
         top = cv2.dilate(bright, np.ones((k, k), np.uint8))
         out = np.empty((h, w), np.float32)
-        first_lit(bright, lit_ok, k, np.float32(0.8), out)
+        first_lit(bright, lit_ok, k, np.float32(0.8), out, np.empty(first_lit_work(h, w, k), np.float32))
         np.testing.assert_array_equal(out, lit_ok * (bright >= top - 0.8))
 
 
