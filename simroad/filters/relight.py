@@ -188,10 +188,11 @@ def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarr
     the order OpenBLAS's gemv sums them, bit for bit here).
     """
     dc = d - (d[0] + d[1] + d[2]) / 3  # d - d.mean(): numpy sums three values left to right
-    alpha = np.empty(diff.shape[1:], np.float32)
-    chroma = np.empty(diff.shape[1:], np.float32)
+    alpha = scratch("relight alpha", diff.shape[1:], np.float32)
+    chroma = scratch("relight chroma", diff.shape[1:], np.float32)
     alpha_chroma(diff, d, np.float32(d @ d), dc, np.float32(dc @ dc), alpha, chroma)
-    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5))
+    blurred = scratch("relight blurred chroma", chroma.shape, np.float32)  # read before the next round
+    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5), dst=blurred)
 
 
 def _coverage(
@@ -203,7 +204,7 @@ def _coverage(
     lit_ok = valid.astype(np.float32)
     # First guess of the lit pixels: within half a shadow step of the brightest (along
     # d) of a wide box around them, so a shadow wider than the box is not its own reference.
-    bright = np.empty(valid.shape, np.float32)
+    bright = scratch("relight bright", valid.shape, np.float32)
     project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     lit = np.empty(valid.shape, np.float32)
     work = scratch("relight first lit", (first_lit_work(valid.shape[0], valid.shape[1], 3 * window),), np.float32)
@@ -213,7 +214,7 @@ def _coverage(
         diff = _lit_diff(logs, lit, window)
         alpha, chroma = _alpha_chroma(diff, d)
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
-        lit = np.empty(valid.shape, np.float64)
+        lit = scratch("relight lit", valid.shape, np.float64)  # the last round's is read already
         lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
         new = np.empty(3, diff.dtype)  # the median (pixel - reference) over the eroded shadow cores
         cores, moved = next_direction(diff, cv2.erode(shadow, core_disc), d, 20, diff.dtype.type(-1e-3), new)
@@ -235,8 +236,8 @@ def _relight_band(
     call); (new planes, relit mask), or None when no pixel is."""
     h, w = planes[0].shape
     band = slice(top, top + full.shape[0])
-    where = np.empty(full.size, np.int64)
-    lin = np.empty((3, full.size), np.float32)
+    where = scratch("relight where", (full.size,), np.int64)
+    lin = scratch("relight linear", (3, full.size), np.float32)
     mask = np.zeros((h, w), bool)
     n = relit_linear(full, np.float32(0.02), planes[0][band], planes[1][band], planes[2][band], table, k, where, lin,
                      mask[band])  # fmt: skip
