@@ -158,20 +158,22 @@ def _edge_pairs(logs: np.ndarray, valid: np.ndarray, min_drop: float) -> np.ndar
     return edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER))
 
 
-def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
+def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int, *, eager: bool = True) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
     Both boxes and the difference in one compiled pass (:func:`~simroad.filters._lit_boxes.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
     exceeds 0.15), in ``lit``'s dtype; the larger box only where the smaller holds too few,
-    the frame's mean only when some pixel needs it.
+    the frame's mean only when some pixel needs it. ``eager``: both boxes' row sums in one
+    pass (where the first box will hold too few in most columns, as around the first guess
+    of the lit pixels), else the larger box's only for the columns that need it.
     """
     kind = lit.dtype.type
     diff = scratch("relight diff", logs.shape, lit.dtype)  # valid until the next call: the caller keeps none
     rest = scratch("relight rest", lit.shape, np.uint8)
     sums = scratch("relight row sums", (2, lit.shape[0], 4, lit.shape[1]), np.float64)
-    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest, sums):
+    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest, sums, eager):
         weighted = np.multiply(logs, lit, out=scratch("relight weighted logs", diff.shape, diff.dtype))
         frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
         minus_at(logs, frame, rest, 2, diff)
@@ -210,8 +212,8 @@ def _coverage(
     work = scratch("relight first lit", (first_lit_work(valid.shape[0], valid.shape[1], 3 * window),), np.float32)
     first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit, work)
     shadow = np.empty(valid.shape, np.uint8)
-    for _ in range(_ROUNDS):
-        diff = _lit_diff(logs, lit, window)
+    for round_ in range(_ROUNDS):
+        diff = _lit_diff(logs, lit, window, eager=round_ == 0)  # the first guess leaves wide gaps
         alpha, chroma = _alpha_chroma(diff, d)
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
         lit = scratch("relight lit", valid.shape, np.float64)  # the last round's is read already

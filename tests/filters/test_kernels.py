@@ -331,8 +331,10 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
     for h, w in ((54, 160), (5, 40), (30, 7)):
         logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
         logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
-        for density in (0.6, 0.15, 0.05):  # across the columns, from none: each box holds enough, or neither
-            lit = (rng.random((h, w)) < density * np.linspace(0.0, 2.0, w)).astype(dtype)
+        for density in (0.6, 0.15, 0.05, -0.6):  # across the columns, from none: each box holds enough, or neither
+            lit = (rng.random((h, w)) < abs(density) * np.linspace(0.0, 2.0, w)).astype(dtype)
+            if density < 0:  # a gap in the middle: the larger box is needed in some middle columns only
+                lit[:, w // 3 : w // 2 + 1] = 0
             mean = np.zeros((3, h, w), dtype)
             held = np.zeros((h, w), bool)
             for size in (3 * k, k):  # the smaller box overrides the larger where it holds enough
@@ -341,11 +343,13 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
                 held |= ok
                 for c in range(3):
                     np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
-            got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
-            sums = np.empty((2, h, w * 4), np.float64).reshape(2, h, 4, w)
-            assert lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest, sums) == (~held).sum()
-            np.testing.assert_array_equal(rest == 2, ~held)
-            np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
+            for eager in (True, False):  # both boxes' row sums at once, or the larger's where needed
+                got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
+                sums = np.empty((2, h, 4, w), np.float64)
+                n = lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest, sums, eager)
+                assert n == (~held).sum()
+                np.testing.assert_array_equal(rest == 2, ~held)
+                np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
 
 
 @pytest.mark.parametrize("dtypes", [(np.float32, np.float32), (np.float32, np.float64), (np.float64, np.float64)])
