@@ -493,3 +493,36 @@ def test_pow_sparing_zeros_is_cv2_pow(power):
         assert got.shape == expect.shape
         np.testing.assert_array_equal(got, expect)
         np.testing.assert_array_equal(np.signbit(got), np.signbit(expect))
+
+
+def test_clip_planes_is_np_clip_bit_for_bit():
+    from simroad.filters._common import clip_planes
+
+    rng = np.random.default_rng(24)
+    for shape in ((7,), (54, 160), (720, 1280)):
+        x = (rng.random(shape, dtype=np.float32) * 1.4 - 0.2).reshape(-1)
+        for step, value in ((13, -0.0), (17, np.nan), (19, 0.0), (23, 1.0), (29, -np.inf), (31, np.inf)):
+            x[::step] = value
+        x = x.reshape(shape)
+        for plane, bits in ((x.copy(), np.uint32), (x.astype(np.float64), np.uint64)):  # compiled, numpy's
+            expect = np.clip(plane, 0.0, 1.0)
+            assert clip_planes([plane])[0] is plane
+            np.testing.assert_array_equal(plane.view(bits), expect.view(bits))
+
+
+def test_area_quarter_is_cv2_resize_area():
+    from simroad.filters._common import gate_preview
+    from simroad.filters._plane_kernels import area_quarter
+
+    rng = np.random.default_rng(25)
+    for h, w in ((720, 1280), (16, 16), (4, 8)):
+        p = rng.random((h, w), dtype=np.float32)
+        p.reshape(-1)[::7] = np.float32(1e-8)  # sums that are not exact in float32: the order shows
+        p.reshape(-1)[::11] = -0.0
+        out = np.empty((h // 4, w // 4), np.float32)
+        area_quarter(p, out)
+        expect = cv2.resize(p, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
+        np.testing.assert_array_equal(out.view(np.uint32), expect.view(np.uint32))
+    planes = [rng.random((720, 1280), dtype=np.float32) for _ in range(3)]
+    for got, p in zip(gate_preview(planes), planes):  # the pipeline's preview of a 1280x720 frame
+        np.testing.assert_array_equal(got, cv2.resize(p, (320, 180), interpolation=cv2.INTER_AREA))
