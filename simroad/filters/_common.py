@@ -22,6 +22,7 @@ import numpy as np
 
 from simroad._validation import SimroadError, check_image, check_int_in_range
 from simroad.filters._kernels import LEVELS, response_forward, response_inverse, uint8_planes
+from simroad.filters._plane_kernels import area_quarter, clip_unit
 from simroad.noise.radiometry import GAMMA
 
 __all__ = [
@@ -124,7 +125,17 @@ def gate_preview(planes: Planes) -> Planes | None:
     if factor <= 1:
         return None
     size = (max(1, w // factor), max(1, h // factor))
+    if factor == 4 and w % 4 == 0 and h % 4 == 0 and all(_plain(p) for p in planes):  # 1280x720: compiled
+        out = np.empty((3, size[1], size[0]), np.float32)
+        for p, small in zip(planes, out):
+            area_quarter(p, small)
+        return [out[0], out[1], out[2]]
     return [cv2.resize(p, size, interpolation=cv2.INTER_AREA) for p in planes]
+
+
+def _plain(p: np.ndarray) -> bool:
+    """Whether ``p`` is a C-contiguous float32 array (what the compiled plane loops take)."""
+    return p.dtype == np.float32 and p.flags.c_contiguous
 
 
 def planes_to_uint8(planes: Planes) -> list[np.ndarray]:
@@ -133,9 +144,13 @@ def planes_to_uint8(planes: Planes) -> list[np.ndarray]:
 
 
 def clip_planes(planes: Planes) -> Planes:
-    """Clip each plane to [0, 1] in place and return the list."""
+    """Clip each plane to [0, 1] in place and return the list (``np.clip``; compiled for
+    contiguous float32 planes, :func:`~simroad.filters._plane_kernels.clip_unit`)."""
     for p in planes:
-        np.clip(p, 0.0, 1.0, out=p)
+        if _plain(p):
+            clip_unit(p)
+        else:
+            np.clip(p, 0.0, 1.0, out=p)
     return planes
 
 

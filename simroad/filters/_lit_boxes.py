@@ -31,11 +31,11 @@ def _reflect101(p: int, n: int) -> int:
 
 
 @njit(cache=True, nogil=True)
-def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
+def _box_row(ext: np.ndarray, k: int, w: int, row: np.ndarray) -> None:
     """The row sums of OpenCV's box filter (``RowSum``, float64) over a bordered row ``ext``
-    (4, w + k - 1) into ``row`` (4, w): three or five terms summed left to right, else a
-    running sum (the four channels' chains interleaved, the first sums too)."""
-    w = row.shape[1]
+    (4, w + k - 1) into the first ``w`` columns of ``row`` (4, at least w): three or five terms
+    summed left to right, else a running sum (the four channels' chains interleaved, the first
+    sums too)."""
     if k == 3 or k == 5:
         for c in range(4):
             for i in range(w):
@@ -60,13 +60,17 @@ def _box_row(ext: np.ndarray, k: int, row: np.ndarray) -> None:
 
 
 @njit(cache=True, nogil=True)
-def _row_sums(logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], sums: np.ndarray) -> None:
+def _row_sums(logs: np.ndarray, lit: np.ndarray, sizes: tuple, upto: int, sums: np.ndarray) -> None:
     """OpenCV's row sums (float64) of the four-channel image ``[lit, logs * lit]`` (the product
-    in ``lit``'s dtype) for boxes of sides ``sizes`` into ``sums`` (2, h, 4, w). Each row is
-    bordered once, for the larger box; the smaller one's bordered row lies within it."""
+    in ``lit``'s dtype) for boxes of sides ``sizes`` (one or more), at the columns below ``upto``,
+    into ``sums`` (len(sizes), h, 4, w) (a row's running sum stops there: the sums up to it are
+    those of the whole row). Each row is bordered once, for the largest box; a smaller
+    one's bordered row lies within it."""
     h, w = lit.shape
-    big = max(sizes[0], sizes[1])
-    n = w + big - 1
+    big = 0
+    for k in sizes:
+        big = max(big, k)
+    n = upto + big - 1
     xs = np.empty(n, np.int64)
     for x in range(n):
         xs[x] = _reflect101(x - big // 2, w)
@@ -77,10 +81,10 @@ def _row_sums(logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], sums: n
             weight = lit[y, xx]
             ext[0, x] = weight
             ext[1, x], ext[2, x], ext[3, x] = logs[0, y, xx] * weight, logs[1, y, xx] * weight, logs[2, y, xx] * weight
-        for b in range(2):
+        for b in range(len(sizes)):
             k = sizes[b]
             off = big // 2 - k // 2
-            _box_row(ext[:, off : off + w + k - 1], k, sums[b, y])
+            _box_row(ext[:, off : off + upto + k - 1], k, upto, sums[b, y])
 
 
 @njit(cache=True, nogil=True)
@@ -128,29 +132,44 @@ def _first_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, r
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _second_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray) -> int:
-    """Where ``rest`` is set, the box of side ``k`` over the row sums ``sums`` (h, 4, w): its
-    mean ``box(w_c) / max(box(lit), eps)`` into ``mean`` where ``box(lit)`` exceeds ``thr``
-    (``rest`` cleared), else 0 (``rest`` becomes 2). Returns how many pixels neither box
-    holds enough for."""
-    h, w = rest.shape
-    flat = sums.reshape(h, 4 * w)
-    total = np.zeros(4 * w, np.float64)
-    vals = np.empty((4, w), mean.dtype)
+def _second_box(
+    sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, rest: np.ndarray, lo: int, hi: int
+) -> int:  # fmt: skip
+    """Where ``rest`` is set (within the columns ``lo`` to ``hi - 1``), the box of side ``k`` over
+    the row sums ``sums`` (h, 4, w): its mean ``box(w_c) / max(box(lit), eps)`` into ``mean``
+    where ``box(lit)`` exceeds ``thr`` (``rest`` cleared), else 0 (``rest`` becomes 2). Returns
+    how many pixels neither box holds enough for. The running column sums (as
+    :func:`_column_step`'s) are carried for those columns only."""
+    h = rest.shape[0]
+    m = hi - lo
+    a = k // 2
+    scale = 1.0 / (k * k)
+    total = np.zeros((4, m), np.float64)
+    vals = np.empty((4, m), mean.dtype)
     n = 0
     for t in range(h + k - 1):
-        if not _column_step(flat, t, k, total, vals.reshape(-1)):
+        row = sums[_reflect101(t - a, h)]
+        if t < k - 1:
+            for c in range(4):
+                for i in range(m):
+                    total[c, i] += row[c, lo + i]
             continue
+        old = sums[_reflect101(t - (k - 1) - a, h)]  # the row that leaves the window
+        for c in range(4):
+            for i in range(m):
+                s0 = total[c, i] + row[c, lo + i]
+                vals[c, i] = s0 * scale
+                total[c, i] = s0 - old[c, lo + i]
         y = t - (k - 1)
-        for i in range(w):
-            if not rest[y, i]:
+        for i in range(m):
+            if not rest[y, lo + i]:
                 continue
             weight = vals[0, i]
             big = weight > thr
             den = max(weight, eps)
             for c in range(3):
-                mean[c, y, i] = vals[1 + c, i] / den if big else 0.0
-            rest[y, i] = 0 if big else 2
+                mean[c, y, lo + i] = vals[1 + c, i] / den if big else 0.0
+            rest[y, lo + i] = 0 if big else 2
             n += not big
     return n
 
@@ -158,7 +177,7 @@ def _second_box(sums: np.ndarray, k: int, thr: Any, eps: Any, mean: np.ndarray, 
 @njit(cache=True, nogil=True)
 def lit_diff(
     logs: np.ndarray, lit: np.ndarray, sizes: tuple[int, int], thr: Any, eps: Any, diff: np.ndarray,
-    rest: np.ndarray,
+    rest: np.ndarray, sums: np.ndarray, eager: bool = True,
 ) -> int:  # fmt: skip
     """``diff = logs - mean``, ``mean`` each pixel's lit reference: the box mean of the first box
     of ``sizes`` where its weight exceeds ``thr``, else the second box's where its does, else
@@ -170,13 +189,28 @@ def lit_diff(
     OpenCV's row sums (three or five terms left to right, else running) and running column
     sums in float64, each sum times ``1 / k**2`` rounded to the dtype (the tests hold it to
     ``cv2.blur``); the comparison, the division and the difference are in that dtype. The
-    second box's means are computed only where the first box holds too few.
+    second box's sums only for the columns where the first box holds too few (from the
+    first such column to the last; a row's running sum stops at the last). ``sums``
+    (2, h, 4, w) float64: work space for the row sums of the two boxes. ``eager``: both
+    boxes' row sums in one pass over the image (the same sums; faster where the first box
+    holds too few in most columns), else the second's only for those columns.
     """
     h, w = lit.shape
-    sums = np.empty((2, h, 4, w), np.float64)
-    _row_sums(logs, lit, sizes, sums)
+    if eager:
+        _row_sums(logs, lit, sizes, w, sums)
+    else:
+        _row_sums(logs, lit, (sizes[0],), w, sums[:1])
     _first_box(sums[0], sizes[0], thr, eps, diff, rest)
-    n = _second_box(sums[1], sizes[1], thr, eps, diff, rest)
+    lo, hi = w, 0  # the columns where the first box holds too few
+    for y in range(h):
+        for x in range(w):
+            if rest[y, x]:
+                lo, hi = min(lo, x), max(hi, x + 1)
+    n = 0
+    if lo < hi:
+        if not eager:
+            _row_sums(logs, lit, (sizes[1],), hi, sums[1:])
+        n = _second_box(sums[1], sizes[1], thr, eps, diff, rest, lo, hi)
     src, dst = logs.reshape(-1), diff.reshape(-1)
     for i in range(dst.size):
         dst[i] = src[i] - dst[i]

@@ -30,6 +30,7 @@ __all__ = [
     "clip_inside",
     "edge_pairs",
     "first_lit",
+    "first_lit_work",
     "lit_outside",
     "next_direction",
     "project",
@@ -132,17 +133,17 @@ def strong_median(pairs: np.ndarray, q: float) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def _max_down(x: np.ndarray, k: int, out: np.ndarray) -> None:
+def _max_down(x: np.ndarray, k: int, first: np.ndarray, last: np.ndarray, out: np.ndarray) -> None:
     """``out[i] = max(x[i - k // 2 : i - k // 2 + k])`` down each column of ``x`` (n, m), the window
     cut at the edges (as ``cv2.dilate``'s border): van Herk / Gil-Werman, the prefix and
     suffix maxima within blocks of ``k`` of the columns padded with -inf, the columns side
-    by side (vectorised)."""
+    by side (vectorised); ``first`` and ``last`` ((n + k - 1) * m each) hold them."""
     n, m = x.shape
     a = k // 2
     size = n + k - 1
     pad = np.full(m, -np.inf, x.dtype)
-    first = np.empty((size, m), x.dtype)  # max from the start of the block
-    last = np.empty((size, m), x.dtype)  # max to the end of the block
+    first = first[: size * m].reshape(size, m)  # max from the start of the block
+    last = last[: size * m].reshape(size, m)  # max to the end of the block
     for j in range(size):
         row = x[j - a] if 0 <= j - a < n else pad
         if j % k == 0:
@@ -162,16 +163,29 @@ def _max_down(x: np.ndarray, k: int, out: np.ndarray) -> None:
             out[i, c] = max(last[i, c], first[i + k - 1, c])
 
 
+def first_lit_work(h: int, w: int, k: int) -> int:
+    """How many float32 values :func:`first_lit`'s ``work`` must hold for an (h, w) image and side ``k``."""
+    return 2 * max((h + k - 1) * w, (w + k - 1) * h) + 3 * h * w
+
+
 @njit(cache=True, nogil=True)
-def first_lit(bright: np.ndarray, lit_ok: np.ndarray, k: int, step: Any, out: np.ndarray) -> None:
+def first_lit(bright: np.ndarray, lit_ok: np.ndarray, k: int, step: Any, out: np.ndarray, work: np.ndarray) -> None:
     """``out = lit_ok * (bright >= cv2.dilate(bright, np.ones((k, k), np.uint8)) - step)``
     (float32, ``step`` float32): the maximum over the box, exact in any order, down the
-    columns then along the rows (:func:`_max_down` of the transposed)."""
+    columns then along the rows (:func:`_max_down` of the transposed). ``work``: float32
+    work space of :func:`first_lit_work` values."""
     h, w = bright.shape
-    down = np.empty((h, w), bright.dtype)
-    _max_down(bright, k, down)
-    across = np.empty((w, h), bright.dtype)
-    _max_down(np.ascontiguousarray(down.T), k, across)
+    span = max((h + k - 1) * w, (w + k - 1) * h)
+    first, last = work[:span], work[span : 2 * span]
+    rest = work[2 * span :]
+    down = rest[: h * w].reshape(h, w)
+    turned = rest[h * w : 2 * h * w].reshape(w, h)
+    across = rest[2 * h * w : 3 * h * w].reshape(w, h)
+    _max_down(bright, k, first, last, down)
+    for i in range(h):
+        for j in range(w):
+            turned[j, i] = down[i, j]
+    _max_down(turned, k, first, last, across)
     zero = np.float32(0.0)
     for i in range(h):
         for j in range(w):

@@ -85,6 +85,7 @@ from simroad.filters._relight_kernels import (
     clip_inside,
     edge_pairs,
     first_lit,
+    first_lit_work,
     lit_outside,
     next_direction,
     project,
@@ -94,6 +95,7 @@ from simroad.filters._relight_kernels import (
     sky_ratios,
     strong_median,
 )
+from simroad.filters._workspace import scratch
 
 __all__ = ["relight_shadows"]
 
@@ -156,20 +158,24 @@ def _edge_pairs(logs: np.ndarray, valid: np.ndarray, min_drop: float) -> np.ndar
     return edge_pairs(logs, valid, _SHIFT, np.float32(min_drop), np.float32(_BLUER))
 
 
-def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int) -> np.ndarray:
+def _lit_diff(logs: np.ndarray, lit: np.ndarray, window: int, *, eager: bool = True) -> np.ndarray:
     """``logs`` minus the mean log colour (3, h, w) of the ``lit`` (float 0/1) pixels around
     each pixel: a ``window`` box, a 3x larger one where it holds too few, else the frame's mean.
 
     Both boxes and the difference in one compiled pass (:func:`~simroad.filters._lit_boxes.lit_diff`:
     ``cv2.blur`` of ``lit`` and ``logs * lit``, bit for bit, the ratio where the weight
     exceeds 0.15), in ``lit``'s dtype; the larger box only where the smaller holds too few,
-    the frame's mean only when some pixel needs it.
+    the frame's mean only when some pixel needs it. ``eager``: both boxes' row sums in one
+    pass (where the first box will hold too few in most columns, as around the first guess
+    of the lit pixels), else the larger box's only for the columns that need it.
     """
     kind = lit.dtype.type
-    diff = np.empty(logs.shape, lit.dtype)
-    rest = np.empty(lit.shape, np.uint8)
-    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest):
-        frame = (logs * lit).sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
+    diff = scratch("relight diff", logs.shape, lit.dtype)  # valid until the next call: the caller keeps none
+    rest = scratch("relight rest", lit.shape, np.uint8)
+    sums = scratch("relight row sums", (2, lit.shape[0], 4, lit.shape[1]), np.float64)
+    if lit_diff(logs, lit, (window, 3 * window), kind(0.15), kind(1e-6), diff, rest, sums, eager):
+        weighted = np.multiply(logs, lit, out=scratch("relight weighted logs", diff.shape, diff.dtype))
+        frame = weighted.sum(axis=(1, 2)) / max(float(lit.sum()), 1.0)
         minus_at(logs, frame, rest, 2, diff)
     return diff
 
@@ -184,10 +190,11 @@ def _alpha_chroma(diff: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarr
     the order OpenBLAS's gemv sums them, bit for bit here).
     """
     dc = d - (d[0] + d[1] + d[2]) / 3  # d - d.mean(): numpy sums three values left to right
-    alpha = np.empty(diff.shape[1:], np.float32)
-    chroma = np.empty(diff.shape[1:], np.float32)
+    alpha = scratch("relight alpha", diff.shape[1:], np.float32)
+    chroma = scratch("relight chroma", diff.shape[1:], np.float32)
     alpha_chroma(diff, d, np.float32(d @ d), dc, np.float32(dc @ dc), alpha, chroma)
-    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5))
+    blurred = scratch("relight blurred chroma", chroma.shape, np.float32)  # read before the next round
+    return cv2.blur(alpha, (3, 3)), cv2.blur(chroma, (5, 5), dst=blurred)
 
 
 def _coverage(
@@ -199,16 +206,17 @@ def _coverage(
     lit_ok = valid.astype(np.float32)
     # First guess of the lit pixels: within half a shadow step of the brightest (along
     # d) of a wide box around them, so a shadow wider than the box is not its own reference.
-    bright = np.empty(valid.shape, np.float32)
+    bright = scratch("relight bright", valid.shape, np.float32)
     project(logs, d, -np.float32(d @ d), bright)  # (np.tensordot(d, logs, 1) / -float(d @ d)).astype(np.float32)
     lit = np.empty(valid.shape, np.float32)
-    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit)
+    work = scratch("relight first lit", (first_lit_work(valid.shape[0], valid.shape[1], 3 * window),), np.float32)
+    first_lit(bright, lit_ok, 3 * window, np.float32(_FIRST_LIT), lit, work)
     shadow = np.empty(valid.shape, np.uint8)
-    for _ in range(_ROUNDS):
-        diff = _lit_diff(logs, lit, window)
+    for round_ in range(_ROUNDS):
+        diff = _lit_diff(logs, lit, window, eager=round_ == 0)  # the first guess leaves wide gaps
         alpha, chroma = _alpha_chroma(diff, d)
         shadow_update(alpha, chroma, valid, np.float32(_MIN_ALPHA), np.float32(_MIN_CHROMA), shadow)
-        lit = np.empty(valid.shape, np.float64)
+        lit = scratch("relight lit", valid.shape, np.float64)  # the last round's is read already
         lit_outside(lit_ok, cv2.dilate(shadow, disc), lit)  # lit_ok * (1.0 - dilated shadow)
         new = np.empty(3, diff.dtype)  # the median (pixel - reference) over the eroded shadow cores
         cores, moved = next_direction(diff, cv2.erode(shadow, core_disc), d, 20, diff.dtype.type(-1e-3), new)
@@ -230,8 +238,8 @@ def _relight_band(
     call); (new planes, relit mask), or None when no pixel is."""
     h, w = planes[0].shape
     band = slice(top, top + full.shape[0])
-    where = np.empty(full.size, np.int64)
-    lin = np.empty((3, full.size), np.float32)
+    where = scratch("relight where", (full.size,), np.int64)
+    lin = scratch("relight linear", (3, full.size), np.float32)
     mask = np.zeros((h, w), bool)
     n = relit_linear(full, np.float32(0.02), planes[0][band], planes[1][band], planes[2][band], table, k, where, lin,
                      mask[band])  # fmt: skip

@@ -331,8 +331,10 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
     for h, w in ((54, 160), (5, 40), (30, 7)):
         logs = np.log(rng.uniform(2e-3, 1.0, (3, h, w))).astype(np.float32)
         logs.reshape(-1)[::11] = np.float32(-1e-7)  # sums that are not exact in float64: the order shows
-        for density in (0.6, 0.15, 0.05):  # across the columns, from none: each box holds enough, or neither
-            lit = (rng.random((h, w)) < density * np.linspace(0.0, 2.0, w)).astype(dtype)
+        for density in (0.6, 0.15, 0.05, -0.6):  # across the columns, from none: each box holds enough, or neither
+            lit = (rng.random((h, w)) < abs(density) * np.linspace(0.0, 2.0, w)).astype(dtype)
+            if density < 0:  # a gap in the middle: the larger box is needed in some middle columns only
+                lit[:, w // 3 : w // 2 + 1] = 0
             mean = np.zeros((3, h, w), dtype)
             held = np.zeros((h, w), bool)
             for size in (3 * k, k):  # the smaller box overrides the larger where it holds enough
@@ -341,10 +343,13 @@ def test_lit_diff_boxes_are_cv2_blur_of_the_weighted_logs(dtype, k):
                 held |= ok
                 for c in range(3):
                     np.copyto(mean[c], sums[..., c + 1] / np.maximum(sums[..., 0], dtype(1e-6)), where=ok)
-            got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
-            assert lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest) == (~held).sum()
-            np.testing.assert_array_equal(rest == 2, ~held)
-            np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
+            for eager in (True, False):  # both boxes' row sums at once, or the larger's where needed
+                got, rest = np.empty((3, h, w), dtype), np.empty((h, w), np.uint8)
+                sums = np.empty((2, h, 4, w), np.float64)
+                n = lit_diff(logs, lit, (k, 3 * k), dtype(0.15), dtype(1e-6), got, rest, sums, eager)
+                assert n == (~held).sum()
+                np.testing.assert_array_equal(rest == 2, ~held)
+                np.testing.assert_array_equal(got, logs - mean)  # mean 0 where neither holds enough
 
 
 @pytest.mark.parametrize("dtypes", [(np.float32, np.float32), (np.float32, np.float64), (np.float64, np.float64)])
@@ -455,7 +460,7 @@ def test_relit_pixels_are_the_numpy_relighting():
 
 
 def test_first_lit_is_the_dilation_test():
-    from simroad.filters._relight_kernels import first_lit
+    from simroad.filters._relight_kernels import first_lit, first_lit_work
 
     rng = np.random.default_rng(22)
     for h, w, k in ((54, 160, 93), (54, 160, 9), (20, 31, 4), (7, 5, 30), (1, 12, 3), (33, 40, 1)):
@@ -463,7 +468,7 @@ def test_first_lit_is_the_dilation_test():
         lit_ok = (rng.random((h, w)) < 0.8).astype(np.float32)
         top = cv2.dilate(bright, np.ones((k, k), np.uint8))
         out = np.empty((h, w), np.float32)
-        first_lit(bright, lit_ok, k, np.float32(0.8), out)
+        first_lit(bright, lit_ok, k, np.float32(0.8), out, np.empty(first_lit_work(h, w, k), np.float32))
         np.testing.assert_array_equal(out, lit_ok * (bright >= top - 0.8))
 
 
@@ -488,3 +493,36 @@ def test_pow_sparing_zeros_is_cv2_pow(power):
         assert got.shape == expect.shape
         np.testing.assert_array_equal(got, expect)
         np.testing.assert_array_equal(np.signbit(got), np.signbit(expect))
+
+
+def test_clip_planes_is_np_clip_bit_for_bit():
+    from simroad.filters._common import clip_planes
+
+    rng = np.random.default_rng(24)
+    for shape in ((7,), (54, 160), (720, 1280)):
+        x = (rng.random(shape, dtype=np.float32) * 1.4 - 0.2).reshape(-1)
+        for step, value in ((13, -0.0), (17, np.nan), (19, 0.0), (23, 1.0), (29, -np.inf), (31, np.inf)):
+            x[::step] = value
+        x = x.reshape(shape)
+        for plane, bits in ((x.copy(), np.uint32), (x.astype(np.float64), np.uint64)):  # compiled, numpy's
+            expect = np.clip(plane, 0.0, 1.0)
+            assert clip_planes([plane])[0] is plane
+            np.testing.assert_array_equal(plane.view(bits), expect.view(bits))
+
+
+def test_area_quarter_is_cv2_resize_area():
+    from simroad.filters._common import gate_preview
+    from simroad.filters._plane_kernels import area_quarter
+
+    rng = np.random.default_rng(25)
+    for h, w in ((720, 1280), (16, 16), (4, 8)):
+        p = rng.random((h, w), dtype=np.float32)
+        p.reshape(-1)[::7] = np.float32(1e-8)  # sums that are not exact in float32: the order shows
+        p.reshape(-1)[::11] = -0.0
+        out = np.empty((h // 4, w // 4), np.float32)
+        area_quarter(p, out)
+        expect = cv2.resize(p, (w // 4, h // 4), interpolation=cv2.INTER_AREA)
+        np.testing.assert_array_equal(out.view(np.uint32), expect.view(np.uint32))
+    planes = [rng.random((720, 1280), dtype=np.float32) for _ in range(3)]
+    for got, p in zip(gate_preview(planes), planes):  # the pipeline's preview of a 1280x720 frame
+        np.testing.assert_array_equal(got, cv2.resize(p, (320, 180), interpolation=cv2.INTER_AREA))
