@@ -15,6 +15,7 @@ the pipeline then skips the copy and the clip, and the public functions and
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import NamedTuple
 
 import cv2
@@ -28,6 +29,7 @@ from simroad.noise.radiometry import GAMMA
 __all__ = [
     "FILTER_DTYPES",
     "FilterResult",
+    "absent_on_preview",
     "channel_max",
     "channel_min",
     "channel_sum",
@@ -131,6 +133,14 @@ def gate_preview(planes: Planes) -> Planes | None:
             area_quarter(p, small)
         return [out[0], out[1], out[2]]
     return [cv2.resize(p, size, interpolation=cv2.INTER_AREA) for p in planes]
+
+
+def absent_on_preview(planes: Planes, preview: Planes | None, absent: Callable[[Planes], bool]) -> bool:
+    """Whether a frame larger than :data:`GATE_SIZE` shows no weather on its preview:
+    ``absent(preview)`` on ``preview`` (made by :func:`gate_preview` when None). A frame
+    that fits :data:`GATE_SIZE` is never ruled out here (its gate looks at it itself)."""
+    preview = gate_preview(planes) if preview is None else preview
+    return preview is not None and absent(preview)
 
 
 def _plain(p: np.ndarray) -> bool:

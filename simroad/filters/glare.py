@@ -24,12 +24,12 @@ from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
+    absent_on_preview,
     camera_to_linear,
     check_filter_image,
     check_odd_size,
     crop_box,
     from_planes,
-    gate_preview,
     linear_to_camera,
     to_planes,
 )
@@ -238,10 +238,8 @@ def _glare_planes(
     ``preview``: as for :func:`~simroad.filters.haze._haze_planes` (the lobe is first looked
     for on the preview; :func:`_find` scales to either width)."""
     h, w = planes[0].shape
-    preview = gate_preview(planes) if preview is None else preview
-    if preview is not None:
-        if _find(preview, fine, wide, min_lift, top, shoulder, scale)[0] is None:
-            return planes, np.zeros((h, w), bool)  # no sun's lobe on the preview
+    if absent_on_preview(planes, preview, lambda p: _find(p, fine, wide, min_lift, top, shoulder, scale)[0] is None):
+        return planes, np.zeros((h, w), bool)  # no sun's lobe on the preview
     found, r0 = _find(planes, fine, wide, min_lift, top, shoulder, scale)
     if found is None:
         return planes, np.zeros((h, w), bool)  # no sun's lobe: identity (the planes themselves)

@@ -71,9 +71,9 @@ from simroad._validation import check_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
+    absent_on_preview,
     check_filter_image,
     from_planes,
-    gate_preview,
     pow_sparing_zeros,
     to_planes,
 )
@@ -205,8 +205,9 @@ def _haze_planes(
     ``preview``: :func:`~simroad.filters._common.gate_preview` of the planes when the caller has
     it (a frame larger than ``GATE_SIZE`` without veil on its preview is returned as it is)."""
     mask = np.zeros(planes[0].shape, bool)
-    preview = gate_preview(planes) if preview is None else preview
-    if preview is not None and _transmission(preview, percentile, t_min, tolerance, float(gamma)) is None:
+    if absent_on_preview(
+        planes, preview, lambda p: _transmission(p, percentile, t_min, tolerance, float(gamma)) is None
+    ):
         return planes, mask  # no veil on the preview
     found = _transmission(planes, percentile, t_min, tolerance, float(gamma))
     if found is None:

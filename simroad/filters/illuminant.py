@@ -33,7 +33,7 @@ import cv2
 import numpy as np
 
 from simroad._validation import SimroadError, check_in_range
-from simroad.filters._common import FilterResult, Planes, check_filter_image, from_planes, gate_preview, to_planes
+from simroad.filters._common import FilterResult, Planes, absent_on_preview, check_filter_image, from_planes, to_planes
 from simroad.filters._kernels import LEVELS, level_rows, row_runs
 
 __all__ = ["CLEAR_CHROMATICITY", "CLEAR_MEAN_CHROMATICITY", "remove_colour_cast"]
@@ -100,8 +100,7 @@ def _colour_cast_planes(
     values are written into the given planes (the caller owns them). ``preview``: as for
     :func:`~simroad.filters.haze._haze_planes` (a large frame whose preview lies in the box is
     returned as it is)."""
-    preview = gate_preview(planes) if preview is None else preview
-    if preview is not None and _cast_gains(preview, rows, chromaticity, target, gamma) is None:
+    if absent_on_preview(planes, preview, lambda p: _cast_gains(p, rows, chromaticity, target, gamma) is None):
         return planes, np.zeros(planes[0].shape, bool)  # no cast on the preview
     gains = _cast_gains(planes, rows, chromaticity, target, gamma)
     if gains is None:

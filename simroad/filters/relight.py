@@ -67,10 +67,10 @@ from simroad._validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,
+    absent_on_preview,
     camera_to_linear,
     check_filter_image,
     from_planes,
-    gate_preview,
     linear_to_camera,
     to_planes,
 )
@@ -260,8 +260,7 @@ def _relight_planes(
     h, w = planes[0].shape
     unchanged = (planes, np.zeros((h, w), bool))  # no shadow to relight: the planes themselves
     table = _linear_table(shoulder)
-    preview = gate_preview(planes) if preview is None else preview
-    if preview is not None and _sky_not_blue(preview, table, sky_rows, min_sky_blue):
+    if absent_on_preview(planes, preview, lambda p: _sky_not_blue(p, table, sky_rows, min_sky_blue)):
         return unchanged  # no blue sky on the preview
     top = min(h - 2, int(h * (1.0 - rows)))
     hs, ws = (h - top) // 2, w // 2
