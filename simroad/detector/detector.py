@@ -277,16 +277,35 @@ class RoadDetector(BaseEstimator):
                 # dropped; lit verges look like road): the road is what grows from the
                 # ego's road across smooth colour, and the lobe where road lies both sides.
                 self._since_lobe: int | None = 0
-                lobe = lobe if ground is None else lobe & ground
-                grown = _grow(_as_uint8(image), mask | lobe, ground, GROW_TOLERANCE, 2)
+                bound = self._growth_bound(ground, lobe, mask.shape)
+                lobe = lobe & bound
+                grown = _grow(_as_uint8(image), mask | lobe, bound, GROW_TOLERANCE, 2)
                 if grown.any():
                     mask = grown | _across_lobe(grown, lobe)
             elif lobe is not None and self._remembers_lobe() and mask.any():
-                grown = _grow(_as_uint8(image), mask, ground, GROW_TOLERANCE, 2)  # the sun is still up
+                bound = self._growth_bound(ground, None, mask.shape)  # the sun is still up
+                grown = _grow(_as_uint8(image), mask, bound, GROW_TOLERANCE, 2)
                 if grown.any():
                     mask = grown
             mask = _fill_holes(mask)
         return mask
+
+    def _growth_bound(self, ground: np.ndarray | None, lobe: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
+        """Where region growth may go: the camera's ground (below the horizon) when the
+        detector knows its camera; else the rows from the top of the last sun's lobe down.
+
+        A sun's specular lobe lies on the ground, so the ground reaches at least up to the
+        lobe's top row; above it the bright sky meets the lobe without a step and the
+        growth would flood it (a frame or a photograph scored without a camera). The
+        lobe's top is kept, as a fraction of the height, for the frames the memory covers.
+        """
+        if ground is not None:
+            return ground
+        if lobe is not None:
+            self._lobe_top = float(np.argmax(lobe.any(axis=1))) / shape[0]
+        bound = np.zeros(shape, bool)
+        bound[int(round(getattr(self, "_lobe_top", 0.0) * shape[0])) :] = True
+        return bound
 
     def _remembers_lobe(self) -> bool:
         """Count one more frame without a lobe; True while within :data:`GLARE_MEMORY_FRAMES` of the last one."""
@@ -305,6 +324,7 @@ class RoadDetector(BaseEstimator):
         (:func:`~simroad.detector.registry.predict_alone`) are predicted after a reset.
         """
         self._since_lobe = None
+        self._lobe_top = 0.0
         return self
 
     def set_camera(self, camera: Any) -> RoadDetector:

@@ -54,3 +54,42 @@ def test_without_the_improved_light_filter_nothing_is_remembered(frames, kwargs)
     fresh = det.reset().predict(clear)
     det.predict(glare)
     np.testing.assert_array_equal(det.predict(clear), fresh)
+
+
+@pytest.fixture(scope="module")
+def sun_down_the_lane():
+    """A winding-road frame whose glare lobe runs up to the horizon and meets the bright sky
+    without a step (before the bound, growth without a camera flooded 18,560 sky pixels)."""
+    fs = collect_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
+    return fs.images[0], fs.valid[0]
+
+
+def test_without_a_camera_growth_stays_below_the_lobes_top(sun_down_the_lane, frames):
+    image, ground = sun_down_the_lane
+    clear = frames[1]
+    det = RoadDetector.pretrained(filters=FILTERS)  # no set_camera: a frame or photograph on its own
+    lobe = remove_glare(image).mask
+    assert lobe.any()
+    top = int(np.argmax(lobe.any(axis=1)))
+    mask = det.reset().predict(image)
+    assert mask.any()
+    assert not mask[:top].any()
+    assert not (mask & ~ground).any()  # the sky never joins the road
+    # on the frames the memory covers, the bound is the last lobe's top (the town's
+    # road reaches higher on its own)
+    assert det.reset().predict(clear)[:top].any()
+    det.predict(image)
+    within = det.predict(clear)
+    assert within.any() and not within[:top].any()
+
+
+def test_with_a_camera_growth_is_bounded_by_its_ground(sun_down_the_lane):
+    image, ground = sun_down_the_lane
+
+    class Camera:
+        ground_valid = ground
+
+    det = RoadDetector.pretrained(filters=FILTERS).set_camera(Camera())
+    mask = det.reset().predict(image)
+    assert mask.any() and not (mask & ~ground).any()
+    assert mask[: int(np.argmax(remove_glare(image).mask.any(axis=1)))].any()  # up to the horizon, above the lobe
