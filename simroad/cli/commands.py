@@ -240,7 +240,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             print()
             print(format_table(frows))
     if args.figure:
-        print(f"wrote {qualitative_figure(args.figure)}")
+        print(f"wrote {qualitative_figure(args.figure, seed=args.seed_start)}")  # a held-out world, as scored
     return 0
 
 

@@ -110,3 +110,15 @@ def test_a_bad_scenery_density_is_refused_by_name(value, capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["frames", "--out", "x", "--scenery", value])
     assert "--scenery" in capsys.readouterr().err
+
+
+def test_the_qualitative_figure_draws_the_scored_held_out_world(monkeypatch, tmp_path):
+    import simroad.cli.commands as commands
+
+    drawn = {}
+    monkeypatch.setattr(commands, "evaluate_detector", lambda *a, **k: ([], []))
+    monkeypatch.setattr(commands, "qualitative_figure", lambda path, **k: drawn.update(k) or path)
+    assert main(["evaluate-detector", "--seed-start", "123", "--figure", str(tmp_path / "q.png")]) == 0
+    assert drawn == {"seed": 123}
+    assert main(["evaluate-detector", "--figure", str(tmp_path / "q.png")]) == 0
+    assert drawn["seed"] >= 100  # the default: held out, never a training world (0-15)
