@@ -148,6 +148,40 @@ def test_a_rendered_low_sun_ahead_is_found_and_removed():
     assert out[mask].mean() < img[mask].mean()  # the lobe is gone
 
 
+def test_a_rendered_low_sun_on_pale_aged_asphalt_is_found():
+    # World 210 (a validation world) has pale aged asphalt (albedo ~0.19, twice a typical
+    # road's): the sun's specular lobe is the same, the diffuse floor under it twice as
+    # bright, so the lobe lifts the floor by half as much (1.9-2.5x its level here).
+    frames = collect_frames(
+        scenarios=("highway",), seeds=[210], frames_per_seed=3, every=6, noise="glare", severity=0.4
+    )
+    for img in frames.images:
+        out, mask = remove_glare(img)
+        assert mask[100:].mean() > 0.02 and not mask[:70].any()
+        assert out[mask].mean() < img[mask].mean()  # the lobe is gone
+
+
+@pytest.mark.parametrize(
+    ("scenario", "seed", "step", "noise"),
+    [
+        ("highway", 201, 12, "clear"),  # a lit concrete verge beside dark asphalt: warm, a bell, but slanted
+        ("winding", 246, 30, "clear"),  # the same on a bend
+        ("highway", 234, 6, "snow"),  # a white car ahead with its tail lights on a snowy road
+    ],
+)
+def test_a_lit_verge_or_a_car_is_not_a_sun_lobe(scenario, seed, step, noise):
+    # Rendered frames (validation worlds) that pass the lobe's brightness, concentration and
+    # symmetry tests: a verge's lift converges to the vanishing point (the sun's
+    # reflections lie on a vertical line), a car's red lights are not as warm as a low sun.
+    frames = collect_frames(
+        scenarios=(scenario,), seeds=[seed], frames_per_seed=step // 6 + 1, every=6, noise=noise, severity=0.8
+    )
+    img = frames.images[-1]
+    out, mask = remove_glare(img)
+    assert not mask.any()
+    np.testing.assert_array_equal(out, img)
+
+
 def _with_sidewalks(y: np.ndarray) -> np.ndarray:
     """Pale grey sidewalks (40 px, narrower than the ``wide`` opening) either side of the asphalt."""
     y = y.copy()
