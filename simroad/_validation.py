@@ -241,6 +241,8 @@ def check_mask(name: str, mask: Any, shape: tuple[int, int] | None = None) -> np
             raise SimroadError(f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. Convert with mask > 0.")
     if mask.ndim != 2:
         raise SimroadError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}.")
+    if mask.size == 0:
+        raise SimroadError(f"{name}: expected a mask of at least 1x1 pixels, got shape {mask.shape}.")
     if shape is not None and mask.shape != tuple(shape):
         raise SimroadError(f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}.")
     return mask

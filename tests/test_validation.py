@@ -5,7 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError, check_array, check_bool, check_image, check_output_dir, check_output_file
+from simroad._validation import (
+    SimroadError,
+    check_array,
+    check_bool,
+    check_image,
+    check_mask,
+    check_output_dir,
+    check_output_file,
+)
 
 
 # --- check_array and the finite-value message (issue 13, models) ---------------------------------
@@ -78,3 +86,10 @@ def test_check_output_file(tmp_path):
         check_output_file("figure", tmp_path / "file.txt" / "f.png")
     with pytest.raises(SimroadError, match=r"^figure: expected a file path"):
         check_output_file("figure", "")
+
+
+@pytest.mark.parametrize("shape", [(0, 0), (0, 5), (5, 0)])
+def test_check_mask_refuses_empty_masks(shape):
+    with pytest.raises(SimroadError, match=r"^mask: expected a mask of at least 1x1 pixels, got shape"):
+        check_mask("mask", np.zeros(shape, bool))
+

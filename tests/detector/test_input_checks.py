@@ -54,6 +54,8 @@ def _mask_cases(fn: Callable[[object], object]) -> list[Case]:
         ("type-shape", lambda: fn(np.stack([MASK, MASK], axis=-1)), "mask"),
         ("range", lambda: fn(two), "mask"),
         ("finite", lambda: fn(_with(np.nan, (12, 12), 1.0)), "mask"),
+        ("range-empty", lambda: fn(np.zeros((0, 0), bool)), "mask"),  # was a segfault in OpenCV
+        ("range-no-rows", lambda: fn(np.zeros((0, 12), bool)), "mask"),
     ]
 
 
