@@ -256,6 +256,8 @@ def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -
     if isinstance(rng, np.random.Generator):
         return rng
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
+        if rng < 0:
+            raise SimroadError(f"{name}: expected a seed >= 0, got {int(rng)}. Pass a non-negative integer seed.")
         return np.random.default_rng(int(rng))
     raise SimroadError(
         f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. Pass rng=np.random.default_rng(seed)."

@@ -13,6 +13,7 @@ from simroad._validation import (
     check_mask,
     check_output_dir,
     check_output_file,
+    normalize_rng,
 )
 
 
@@ -93,3 +94,13 @@ def test_check_mask_refuses_empty_masks(shape):
     with pytest.raises(SimroadError, match=r"^mask: expected a mask of at least 1x1 pixels, got shape"):
         check_mask("mask", np.zeros(shape, bool))
 
+
+@pytest.mark.parametrize("seed", [-1, np.int64(-7), -(2**70)])
+def test_normalize_rng_refuses_negative_seeds_by_name(seed):
+    with pytest.raises(SimroadError, match=r"^random_state: expected a seed >= 0, got -"):
+        normalize_rng(seed, name="random_state")
+
+
+def test_normalize_rng_keeps_valid_seeds():
+    assert normalize_rng(0).random() == np.random.default_rng(0).random()
+    assert normalize_rng(np.uint64(2**63)).random() == np.random.default_rng(2**63).random()
