@@ -150,8 +150,8 @@ class RoadCamEnv(gym.Env):
                 f"options: RoadCamEnv.reset takes no options, got {sorted(map(str, options))}. "
                 "Configure the environment with its constructor keywords instead."
             )
-        if seed is not None:
-            check_int_in_range("seed", seed, 0, 2**63 - 1)
+        if seed is not None:  # a plain int for gymnasium (which refuses numpy integers and 3.0)
+            seed = check_int_in_range("seed", seed, 0, 2**63 - 1)
         super().reset(seed=seed)
         rng = self.np_random
         self._hw.reset(seed=int(rng.integers(2**31 - 1)))

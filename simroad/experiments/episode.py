@@ -112,18 +112,21 @@ class EpisodeSpec:
     detector_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        check_int_in_range("steps", self.steps, 1, 1_000_000)
-        check_int_in_range("seed", self.seed, 0, 2**31 - 1)
+        # Stored as plain int/float: numpy scalars or 3.0 would reach gymnasium's seeding,
+        # range() and json.dumps of the record.
+        object.__setattr__(self, "steps", check_int_in_range("steps", self.steps, 1, 1_000_000))
+        object.__setattr__(self, "seed", check_int_in_range("seed", self.seed, 0, 2**31 - 1))
+        object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
         if not isinstance(self.filters, (str, list, tuple)):
             raise SimroadError(
                 f"filters: expected 'none', 'all', names joined by '+' or a tuple of names, got "
                 f"{type(self.filters).__name__} {self.filters!r}."
             )
         object.__setattr__(self, "filters", parse_filters(self.filters))
-        if isinstance(self.driver, str):
+        if isinstance(self.driver, str) or not callable(self.driver):
             check_choice("driver", self.driver, DRIVER_NAMES)
         if self.route_m is not None:
-            check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m")
+            object.__setattr__(self, "route_m", check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m"))
         if not isinstance(self.detector, str) or not self.detector.strip():
             raise SimroadError(
                 f"detector: expected a detector spec ('paper', a registered name, 'module:attr' or "

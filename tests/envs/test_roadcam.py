@@ -168,3 +168,11 @@ def test_all_state_exists_before_reset():
     assert set(vars(env)) - fresh <= {"_np_random", "_np_random_seed"}
     with pytest.raises(SimroadError, match="reset"):
         RoadCamEnv().render_bev()
+
+
+@pytest.mark.parametrize("seed", [np.int64(3), np.uint32(3), 3.0])
+def test_reset_takes_a_numpy_or_integral_float_seed_as_that_integer(seed):
+    env = RoadCamEnv(scenario="highway", width=64, height=48)
+    obs, _ = env.reset(seed=seed)  # gymnasium refuses anything but a Python int
+    ref, _ = RoadCamEnv(scenario="highway", width=64, height=48).reset(seed=3)
+    np.testing.assert_array_equal(obs, ref)

@@ -206,3 +206,17 @@ def test_autopilot_rollout_helper_matches_stepping_by_hand():
     assert info_a["pose"].tolist() == info_b["pose"].tolist()
     with pytest.raises(SimroadError, match="steps"):
         drive_autopilot(a, 0)
+
+
+def test_spec_stores_numpy_scalars_and_integral_floats_as_plain_numbers():
+    spec = EpisodeSpec(seed=np.int64(2), steps=2.0, severity=np.float32(0.5), route_m=np.float32(50), noise="rain")
+    assert (spec.seed, spec.steps, spec.severity, spec.route_m) == (2, 2, 0.5, 50.0)
+    assert [type(v) for v in (spec.seed, spec.steps, spec.severity, spec.route_m)] == [int, int, float, float]
+    rec = run_episode(EpisodeSpec(**{**vars(spec), "env_options": {"width": 64, "height": 48}}))
+    json.dumps(rec)  # numpy scalars in the spec made the record unwritable
+
+
+@pytest.mark.parametrize("driver", [5, None, ["oracle"]])
+def test_spec_refuses_a_driver_that_is_neither_a_name_nor_a_callable(driver):
+    with pytest.raises(SimroadError, match=r"^driver: unknown value"):
+        EpisodeSpec(driver=driver)
