@@ -149,12 +149,20 @@ def resolve_factory(spec: str) -> Callable[..., Any]:
     if where.endswith(".py") or "/" in where or "\\" in where:
         module = _module_from_file(spec, Path(where))
     else:
+        if not all(part.isidentifier() for part in where.split(".")):
+            raise SimroadError(
+                f"detector: {spec!r} names no importable module before ':' (got {where!r}); {_how_to()}."
+            )
         try:
             module = importlib.import_module(where)
         except ImportError as exc:
             raise SimroadError(
                 f"detector: cannot import {where!r} for {spec!r} ({exc}); install the package or put it on PYTHONPATH."
             ) from None
+        except Exception as exc:  # the module itself failed while importing: report it by name
+            raise SimroadError(
+                f"detector: importing {where!r} for {spec!r} failed: {type(exc).__name__}: {exc}."
+            ) from exc
     try:
         factory = getattr(module, attr)
     except AttributeError:
@@ -195,8 +203,8 @@ def check_detector(spec: str, options: Any = None) -> tuple[Callable[..., Any], 
             "detector_options: the paper detector's filters are the spec's filters (filters=, --filters), "
             f"not an option; got {sorted(opts)}."
         )
-    try:
-        inspect.signature(factory).bind_partial(**opts)
+    try:  # bind, not bind_partial: the factory is called with these options alone
+        inspect.signature(factory).bind(**opts)
     except TypeError as exc:
         raise SimroadError(
             f"detector_options: {spec!r} did not accept {sorted(opts)} ({exc}); its signature: {_signature(factory)}."
@@ -265,7 +273,14 @@ def _load(spec: str, frozen: tuple, filters: tuple[str, ...], variant: str) -> A
     factory, opts = check_detector(spec, {k: _thaw(v) for k, v in frozen})
     if factory is _paper:
         return _paper(filters=filters, filter_variant=variant, **opts)
-    detector = factory(**opts)
+    try:
+        detector = factory(**opts)
+    except SimroadError:
+        raise
+    except Exception as exc:  # the user's class or factory: report it by name (the cause stays chained)
+        raise SimroadError(
+            f"detector: building {spec!r} with options {opts!r} failed: {type(exc).__name__}: {exc}."
+        ) from exc
     if not callable(getattr(detector, "predict", None)):
         raise SimroadError(
             f"detector: {spec!r} built a {type(detector).__name__} without a predict(image) method; "

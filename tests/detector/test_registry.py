@@ -105,6 +105,9 @@ def test_register_and_entry_points(monkeypatch):
         (f"{__name__}:Nope", "has no attribute 'Nope'"),
         ("/no/such/file.py:make", "no file"),
         (f"{__name__}:np", "not a class or factory"),
+        (":Thing", "names no importable module before ':'"),  # was importlib's ValueError
+        (".relative:Thing", "names no importable module before ':'"),  # was importlib's TypeError
+        ("json:loads", "missing a required argument: 's'"),  # checked before it is called
     ],
 )
 def test_bad_specs_are_refused_by_name(spec, message):
@@ -157,3 +160,14 @@ def test_check_mask_refuses_what_is_not_a_mask():
 
 def test_resolve_factory_finds_the_class():
     assert resolve_factory(f"{__name__}:Half") is Half
+
+
+class _Broken:
+    def __init__(self, fraction: float = 0.5):
+        raise RuntimeError(f"no model for {fraction}")
+
+
+def test_a_detector_whose_constructor_raises_is_refused_by_name():
+    with pytest.raises(SimroadError, match=r"^detector: building '.*:_Broken' .*RuntimeError: no model for 0.2") as err:
+        load_detector(f"{__name__}:_Broken", {"fraction": 0.2})
+    assert isinstance(err.value.__cause__, RuntimeError)  # the user's traceback stays reachable
