@@ -9,8 +9,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from simroad._validation import SimroadError, check_choice
+from simroad.experiments.results import ROW_TYPES
 
-__all__ = ["Requirement", "check_requirements", "parse_requirement"]
+__all__ = ["TEXT_KEYS", "Requirement", "check_requirements", "parse_requirement"]
+
+#: Record keys that hold text (names, versions, specs): no number compares with them.
+TEXT_KEYS = frozenset(k for k, kind in ROW_TYPES.items() if kind in ("text", "label", "text|null"))
 
 _OPS = {"<=": operator.le, ">=": operator.ge, "<": operator.lt, ">": operator.gt}
 _PATTERN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(<=|>=|<|>)\s*([-+0-9.eE]+|true|false)\s*$")
@@ -44,6 +48,11 @@ def parse_requirement(text: str, *, valid_keys: Sequence[str]) -> Requirement:
         )
     key, op, raw = m.groups()
     check_choice("require", key, valid_keys)
+    if key in TEXT_KEYS:
+        raise SimroadError(
+            f"require: {key!r} is a text field of the record, not a number, so {text!r} cannot be checked; "
+            "gate on a numeric key such as 'fnr<=0.05' or 'offroad_fraction<=0.01'."
+        )
     value = {"true": 1.0, "false": 0.0}.get(raw)
     if value is None:
         try:

@@ -220,3 +220,9 @@ def test_spec_stores_numpy_scalars_and_integral_floats_as_plain_numbers():
 def test_spec_refuses_a_driver_that_is_neither_a_name_nor_a_callable(driver):
     with pytest.raises(SimroadError, match=r"^driver: unknown value"):
         EpisodeSpec(driver=driver)
+
+
+@pytest.mark.parametrize("key", ["detector", "scenario", "noise", "filters", "driver", "detector_spec"])
+def test_requirement_on_a_text_key_is_refused_before_the_episode(key):
+    with pytest.raises(SimroadError, match=rf"^require: '{key}' is a text field of the record, not a number"):
+        parse_requirement(f"{key}<=1", valid_keys=RECORD_KEYS)
