@@ -322,4 +322,30 @@ def check_output_file(name: str, path: Any, *, suffixes: Iterable[str] | None = 
     return p
 
 
-__all__ += ["check_output_dir", "check_output_file"]
+def check_input_dir(name: str, path: Any) -> Path:
+    """Check that ``path`` names an existing directory; return a Path."""
+    if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
+        raise SimroadError(f"{name}: expected a directory path, got {type(path).__name__} {path!r}.")
+    p = Path(path)
+    if not p.exists():
+        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing directory.")
+    if not p.is_dir():
+        raise SimroadError(f"{name}: {str(p)!r} is not a directory; expected an existing directory.")
+    return p
+
+
+def check_input_file(name: str, path: Any) -> Path:
+    """Check that ``path`` names an existing, readable regular file; return a Path."""
+    if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
+        raise SimroadError(f"{name}: expected a file path, got {type(path).__name__} {path!r}.")
+    p = Path(path)
+    if not p.exists():
+        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing file.")
+    if not p.is_file():
+        raise SimroadError(f"{name}: {str(p)!r} is not a regular file (a directory?); expected a file.")
+    if not os.access(p, os.R_OK):
+        raise SimroadError(f"{name}: {str(p)!r} is not readable; check its permissions.")
+    return p
+
+
+__all__ += ["check_input_dir", "check_input_file", "check_output_dir", "check_output_file"]

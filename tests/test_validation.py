@@ -104,3 +104,19 @@ def test_normalize_rng_refuses_negative_seeds_by_name(seed):
 def test_normalize_rng_keeps_valid_seeds():
     assert normalize_rng(0).random() == np.random.default_rng(0).random()
     assert normalize_rng(np.uint64(2**63)).random() == np.random.default_rng(2**63).random()
+
+
+def test_check_input_dir_and_file(tmp_path):
+    from simroad._validation import check_input_dir, check_input_file
+
+    f = tmp_path / "f.txt"
+    f.write_text("x")
+    assert check_input_dir("dir", tmp_path) == tmp_path and check_input_file("config", f) == f
+    with pytest.raises(SimroadError, match=r"^dir: .* is not a directory"):
+        check_input_dir("dir", f)
+    with pytest.raises(SimroadError, match=r"^dir: .* does not exist"):
+        check_input_dir("dir", tmp_path / "missing")
+    with pytest.raises(SimroadError, match=r"^config: .* is not a regular file"):
+        check_input_file("config", tmp_path)
+    with pytest.raises(SimroadError, match=r"^config: expected a file path, got int 5"):
+        check_input_file("config", 5)

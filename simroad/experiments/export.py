@@ -20,7 +20,7 @@ __all__ = ["ensure_writable_dir", "export_frames"]
 
 def ensure_writable_dir(name: str, path: str | os.PathLike) -> Path:
     """Create ``path`` if needed and check it is a writable directory."""
-    p = Path(path)
+    p = check_output_dir(name, path)  # a path (not 5 or ''), not a file nor below one
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from simroad._validation import SimroadError
+from simroad._validation import SimroadError, check_input_dir, check_input_file
 from simroad.experiments.report_figures import error_rates_figure, paired_figure, safety_figure
 from simroad.experiments.results import RESULTS_NAME, BadLine, read_results
 from simroad.experiments.stats import (
@@ -282,11 +282,15 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
         ``summary.md``, ``paired.csv``, ``paired.json``, ``error_rates.png``,
         ``safety.png`` and ``paired.png`` (see the module docstring for their contents).
     """
-    d = Path(directory)
+    d = check_input_dir("dir", directory)
     path = d / RESULTS_NAME
     if not path.exists():
         raise SimroadError(f"dir: no {RESULTS_NAME} in {str(d)!r}; run 'simroad ablate --out {d}' first.")
-    records, bad = read_results(path)
+    check_input_file("dir", path)
+    try:
+        records, bad = read_results(path)
+    except OSError as exc:
+        raise SimroadError(f"dir: cannot read {str(path)!r} ({exc.strerror or exc}).") from None
     say = log or (lambda message: print(message, file=sys.stderr))
     for b in bad:
         say(f"{path}: {b}; not used")

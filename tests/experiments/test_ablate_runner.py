@@ -155,3 +155,9 @@ def test_config_file_unknown_key_names_key_and_file(tmp_path):
 def test_invalid_grid_values_are_clear_errors(kw, name):
     with pytest.raises(SimroadError, match=name):
         AblationGrid(**kw)
+
+
+@pytest.mark.parametrize("out", [5, None, ""])
+def test_an_output_directory_that_is_not_a_path_is_refused_by_name(out):
+    with pytest.raises(SimroadError, match=r"^out: expected a directory path"):
+        run_ablation(GRID, out, workers=1, progress=False, cell_fn=stub_cell)  # was pathlib's TypeError

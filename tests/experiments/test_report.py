@@ -143,3 +143,19 @@ def test_the_same_results_give_the_same_report_byte_for_byte(sweep, tmp_path_fac
 def test_report_of_a_directory_without_results_says_what_to_run(tmp_path):
     with pytest.raises(SimroadError, match="simroad ablate"):
         build_report(tmp_path)
+
+
+def test_report_refuses_a_results_path_that_is_a_directory(tmp_path, capsys):
+    (tmp_path / "results.jsonl").mkdir()
+    with pytest.raises(SimroadError, match=r"^dir: .*results\.jsonl' is not a regular file"):
+        build_report(tmp_path)
+    from simroad.cli.main import main
+
+    assert main(["report", str(tmp_path)]) == 2  # was an IsADirectoryError traceback
+    assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("directory", [5, None, ""])
+def test_report_refuses_a_directory_that_is_not_a_path(directory):
+    with pytest.raises(SimroadError, match=r"^dir: expected a directory path"):
+        build_report(directory)
