@@ -135,6 +135,11 @@ class Weather:
                 f"got {type(names).__name__} {names!r}."
             )
         self.names = tuple(check_choice("names", n, tuple(MODELS)) for n in names)
+        dup = sorted({n for n in self.names if self.names.count(n) > 1})
+        if dup:
+            raise SimroadError(
+                f"names: {', '.join(map(repr, dup))} given more than once in {names!r}; name each noise once."
+            )
         self.severity = check_in_range("severity", severity, 0.0, 1.0)
         given = check_noise_params(params, self.names)
         self.models: dict[str, NoiseModel] = {

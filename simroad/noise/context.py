@@ -8,7 +8,7 @@ visibility or the rain's water film).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Any
@@ -107,6 +107,11 @@ class NoiseContext:
             _check_plane("depth", self.depth, kinds="f")
         if self.material is not None:
             _check_plane("material", self.material, kinds="u")
+        if isinstance(self.vehicles, (str, bytes)) or not isinstance(self.vehicles, Iterable):
+            raise SimroadError(
+                f"vehicles: expected a sequence of VehicleBox (the renderer's Frame.vehicles), "
+                f"got {type(self.vehicles).__name__}."
+            )
         vehicles = tuple(self.vehicles)
         for k, v in enumerate(vehicles):
             if not isinstance(v, VehicleBox):
@@ -152,8 +157,13 @@ def _check_plane(name: str, arr: Any, *, kinds: str) -> None:
         }[kinds]
         got = f"{arr.dtype} array of shape {arr.shape}" if isinstance(arr, np.ndarray) else type(arr).__name__
         raise SimroadError(f"{name}: expected a {what}, got {got}.")
-    if kinds == "f" and np.isnan(arr).any():
-        raise SimroadError(f"{name}: contains NaN; use inf for pixels that see no surface.")
+    if kinds == "f" and not (arr >= 0).all():  # one pass: NaN and negative distances both fail it
+        if np.isnan(arr).any():
+            raise SimroadError(f"{name}: contains NaN; use inf for pixels that see no surface.")
+        raise SimroadError(
+            f"{name}: contains negative distances (down to {float(arr.min()):g} m); expected distances >= 0 m, "
+            "inf for pixels that see no surface."
+        )
 
 
 @dataclass

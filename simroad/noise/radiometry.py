@@ -30,13 +30,15 @@ _DECODE_LUT = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.fl
 
 
 def _check_frame(name: str, image: object, dtypes: tuple[str, ...]) -> None:
-    """A cheap per-frame check (type, dtype, shape; no pass over the pixels)."""
+    """A cheap per-frame check (type, dtype, shape, at least one pixel; no pass over the pixels)."""
     if not isinstance(image, np.ndarray):
         raise SimroadError(f"{name}: expected a numpy array (H, W, 3), got {type(image).__name__}.")
     if image.dtype.name not in dtypes:
         raise SimroadError(f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}.")
     if image.ndim != 3 or image.shape[2] != 3:
         raise SimroadError(f"{name}: expected an array of shape (H, W, 3), got shape {image.shape}.")
+    if image.size == 0:
+        raise SimroadError(f"{name}: expected at least 1x1 pixels, got shape {image.shape}.")
 
 
 def srgb_to_linear(image: np.ndarray) -> np.ndarray:

@@ -15,7 +15,9 @@ from simroad.noise import (
     RainParams,
     ShadowParams,
     SnowParams,
+    Weather,
     apply_noise,
+    change_mask,
     linear_to_srgb,
     make_weather,
     parse_noise,
@@ -148,6 +150,8 @@ def test_context_must_match_the_image(scene):
     [
         (dict(depth=np.ones((4, 4), dtype=np.uint8)), "depth: expected a float"),
         (dict(depth=np.full((4, 4), np.nan)), "depth: contains NaN"),
+        (dict(depth=np.full((4, 4), -5.0)), r"^depth: contains negative distances \(down to -5 m\)"),  # fog brightened
+        (dict(vehicles=5), r"^vehicles: expected a sequence of VehicleBox"),  # was 'int' object is not iterable
         (dict(material=np.ones((4, 4), dtype=np.float32)), "material: expected a uint8"),
         (dict(dt=0.0), "dt"),
         (dict(ego_speed=math.nan), "ego_speed"),
@@ -169,3 +173,14 @@ def test_rng_is_required_and_never_global():
 def test_srgb_round_trip_is_exact_for_every_grey_level():
     levels = np.repeat(np.arange(256, dtype=np.uint8)[:, None, None], 3, axis=2).reshape(16, 16, 3)
     np.testing.assert_array_equal(linear_to_srgb(srgb_to_linear(levels)), levels)
+
+
+def test_a_noise_named_twice_is_refused_by_weather_as_by_parse_noise():
+    with pytest.raises(SimroadError, match=r"^names: 'rain' given more than once"):
+        Weather(("rain", "rain"), severity=0.5)  # was accepted as 'rain+rain'
+
+
+@pytest.mark.parametrize("fn", [lambda a: change_mask(a, a), srgb_to_linear])
+def test_empty_frames_are_refused_by_the_radiometry_functions(fn):
+    with pytest.raises(SimroadError, match=r"expected at least 1x1 pixels, got shape \(0, 4, 3\)"):
+        fn(np.zeros((0, 4, 3), np.uint8))  # change_mask raised 'NoneType' object is not subscriptable
