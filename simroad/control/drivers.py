@@ -119,7 +119,13 @@ class CallableDriver:
         out = self.fn(obs)
         if isinstance(out, tuple) and len(out) == 2:
             out, self.last_mask = out
-        return np.asarray(out, dtype=np.float32)
+        try:
+            return np.asarray(out, dtype=np.float32)
+        except (TypeError, ValueError):
+            raise SimroadError(
+                f"driver: returned {type(out).__name__} {out!r:.80}, expected an action: numbers such as "
+                "[steering, acceleration] in [-1, 1] (or (action, mask))."
+            ) from None
 
 
 def make_driver(

@@ -226,3 +226,11 @@ def test_spec_refuses_a_driver_that_is_neither_a_name_nor_a_callable(driver):
 def test_requirement_on_a_text_key_is_refused_before_the_episode(key):
     with pytest.raises(SimroadError, match=rf"^require: '{key}' is a text field of the record, not a number"):
         parse_requirement(f"{key}<=1", valid_keys=RECORD_KEYS)
+
+
+@pytest.mark.parametrize("returned", ["left", {"steer": 0.1}, [0.1, "x"]])
+def test_a_custom_driver_returning_no_numbers_is_refused_by_name(returned):
+    from simroad.control import CallableDriver
+
+    with pytest.raises(SimroadError, match=r"^driver: returned .*, expected an action"):
+        CallableDriver(lambda obs: returned)(np.zeros((4, 4, 3), np.uint8), {})
