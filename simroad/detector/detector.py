@@ -258,7 +258,7 @@ class RoadDetector(BaseEstimator):
         image = check_image("image", image, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
-        if exact:
+        if check_bool("exact", exact):
             rgb, acted = filtered_rgb_masks(image, filters, variant)
             mask = self._decide_rgb(rgb).reshape(image.shape[:2])
         else:

@@ -98,6 +98,7 @@ CASES: dict[str, list[Case]] = {
         ("range-filters", lambda: D.RoadDetector.pretrained(filters=("fog",)), "filters"),
         ("finite-fit", lambda: D.RoadDetector().fit([NAN_IMG], [MASK]), "images[0]"),
         ("range-fit-C", lambda: D.RoadDetector(C=-1.0).fit([IMG], [MASK]), "C"),
+        ("type-exact", lambda: _pretrained().predict(IMG, exact="no"), "exact"),  # 'no' ran the exact SVM
         ("range-fit-seed", lambda: D.RoadDetector(random_state=-1).fit([IMG], [MASK]), "random_state"),
     ],
     "apply_filters": _image_cases(D.apply_filters),
