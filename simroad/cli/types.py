@@ -128,14 +128,36 @@ def float_in(low: float, high: float, *, unit: str = "") -> Callable[[str], floa
     return _typed(convert, "number", [*bad, ("above the range", str(high + 1))])
 
 
+def _split(value: str, example: str) -> list[str]:
+    """The items of a comma-separated list, stripped; an empty list, an empty item
+    (``a,,b``, ``a,``) or an item given twice is refused (a sweep or table would
+    otherwise silently drop or repeat it)."""
+    items = [v.strip() for v in value.split(",")]
+    if not any(items):
+        raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
+    if "" in items:
+        raise SimroadError(f"value: empty item in {value!r}; separate the items by single commas, e.g. {example}.")
+    _refuse_repeats(value, items)
+    return items
+
+
+def _refuse_repeats(value: str, items: Sequence[Any]) -> None:
+    dup = [v for k, v in enumerate(items) if v in items[:k]]
+    if dup:
+        raise SimroadError(f"value: {dup[0]!r} is listed more than once in {value!r}; give each item once.")
+
+
 def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
     """Comma-separated numbers, each in ``[low, high]``, e.g. ``0.3,0.7``."""
     what = f"comma-separated numbers in [{low:g}, {high:g}] such as 0.3,0.7"
 
     def convert(value: str) -> tuple[float, ...]:
-        items = [v.strip() for v in value.split(",") if v.strip()]
-        if not items:
-            raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}.")
+        try:
+            items = _split(value, "0.3,0.7")
+        except SimroadError as exc:
+            if not any(v.strip() for v in value.split(",")):
+                raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}.") from None
+            raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
         out = []
         for item in items:
             try:
@@ -145,10 +167,20 @@ def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
             if not (math.isfinite(number) and low <= number <= high):
                 raise argparse.ArgumentTypeError(f"{item!r} is out of range; expected {what}.")
             out.append(number)
+        try:
+            _refuse_repeats(value, out)  # 0.5,0.50 is one severity twice
+        except SimroadError as exc:
+            raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
         return tuple(out)
 
-    bad = [("wrong type", "abc"), ("one item not a number", f"{low:g},x"), ("empty", ",")]
-    return _typed(convert, "list", [*bad, ("above the range", str(high + 1)), ("not finite", "nan")])
+    bad = [
+        ("wrong type", "abc"),
+        ("one item not a number", f"{low:g},x"),
+        ("empty", ","),
+        ("empty item", f"{low:g},,{high:g}"),
+    ]
+    bad += [("repeated", f"{high:g},{high:g}"), ("above the range", str(high + 1)), ("not finite", "nan")]
+    return _typed(convert, "list", bad)
 
 
 def choice(valid: Sequence[str]) -> Callable[[str], str]:
@@ -161,20 +193,17 @@ def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
     """Comma-separated names, each one of ``valid``."""
 
     def check(value: str) -> tuple[str, ...]:
-        items = tuple(v.strip() for v in value.split(",") if v.strip())
-        if not items:
+        if not any(v.strip() for v in value.split(",")):
             raise SimroadError(f"value: expected comma-separated names from {', '.join(valid)}, got {value!r}.")
-        return tuple(check_choice("value", v, valid) for v in items)
+        return tuple(check_choice("value", v, valid) for v in _split(value, ",".join(valid[:2])))
 
     bad = [("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5")]
+    bad += [("empty item", f"{valid[0]},,{valid[-1]}"), ("repeated", f"{valid[0]},{valid[0]}")]
     return checked(check, "list", bad=bad)
 
 
 def _each(value: str, check: Callable[[str], Any], example: str) -> str:
-    items = [v.strip() for v in value.split(",") if v.strip()]
-    if not items:
-        raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
-    for item in items:
+    for item in _split(value, example):
         check(item)
     return value
 
@@ -191,7 +220,7 @@ def weather_list() -> Callable[[str], str]:
     """Comma-separated weather specs (returned as typed)."""
     from simroad.noise import parse_noise
 
-    bad = [("unknown name", "clear,rian"), ("empty", ",")]
+    bad = [("unknown name", "clear,rian"), ("empty", ","), ("empty item", "rain,,snow"), ("repeated", "rain,rain")]
     return checked(lambda value: _each(value, parse_noise, "clear,rain+glare"), "list", bad=bad)
 
 
@@ -207,7 +236,7 @@ def filter_set_list() -> Callable[[str], str]:
     """Comma-separated filter settings (returned as typed)."""
     from simroad.filters import parse_filters
 
-    bad = [("unknown name", "none,bogus"), ("empty", ",")]
+    bad = [("unknown name", "none,bogus"), ("empty", ","), ("empty item", "none,"), ("repeated", "none,none")]
     return checked(lambda value: _each(value, parse_filters, "none,all"), "list", bad=bad)
 
 
@@ -332,7 +361,7 @@ def detector_specs() -> Callable[[str], str]:
     """Comma-separated detector specs, each resolved now (returned as typed)."""
     from simroad.detector.registry import resolve_factory
 
-    bad = [("unknown name", "paper,bogus"), ("empty", ",")]
+    bad = [("unknown name", "paper,bogus"), ("empty", ","), ("repeated", "paper,paper")]
     return checked(lambda value: _each(value, resolve_factory, "paper,mine.py:Detector"), "detectors", bad=bad)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import inspect
+import re
 import subprocess
 import sys
 
@@ -122,3 +123,27 @@ def test_the_qualitative_figure_draws_the_scored_held_out_world(monkeypatch, tmp
     assert drawn == {"seed": 123}
     assert main(["evaluate-detector", "--figure", str(tmp_path / "q.png")]) == 0
     assert drawn["seed"] >= 100  # the default: held out, never a training world (0-15)
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["evaluate-detector", "--filters", "none,none"], r"--filters: 'none' is listed more than once"),
+        (["filter-effect", "--noises", "rain,rain"], r"--noises: 'rain' is listed more than once"),
+        (["filter-effect", "--variant", "paper,paper"], r"--variant: 'paper' is listed more than once"),
+        (["filter-effect", "--severity", "0.5,0.50"], r"--severity: 0.5 is listed more than once"),
+        (["ablate", "--out", "{tmp}/s", "--severities", "0.5,,0.7"], r"--severities: empty item in '0.5,,0.7'"),
+        (["ablate", "--out", "{tmp}/s", "--noises", "rain,,snow"], r"--noises: empty item in 'rain,,snow'"),
+        (["ablate", "--out", "{tmp}/s", "--scenarios", "racetrack,"], r"--scenarios: empty item in 'racetrack,'"),
+    ],
+)
+def test_comma_lists_refuse_empty_and_repeated_items(argv, words, tmp_path, capsys, monkeypatch):
+    """A dropped empty item or a repeated one was silently skipped or scored twice."""
+    from simroad.cli import commands
+
+    monkeypatch.setattr(commands, "run_ablation", lambda *a, **k: pytest.fail("the sweep started"))
+    monkeypatch.setattr(RoadCamEnv, "reset", lambda *a, **k: pytest.fail("an episode started"))
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert re.search(words, err), err
