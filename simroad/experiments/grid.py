@@ -118,9 +118,12 @@ class AblationGrid:
         object.__setattr__(self, "filters", filt)
         object.__setattr__(self, "detectors", dets)
         object.__setattr__(self, "detector_options", _detector_options(self.detector_options, dets))
-        check_int_in_range("seeds", self.seeds, 1, 100_000)
-        check_int_in_range("seed_start", self.seed_start, 0, 2**31 - 1 - self.seeds)
-        check_int_in_range("steps", self.steps, 1, 1_000_000)
+        # stored as plain ints: 2.0 or numpy integers would reach range() and grid.json
+        object.__setattr__(self, "seeds", check_int_in_range("seeds", self.seeds, 1, 100_000))
+        object.__setattr__(
+            self, "seed_start", check_int_in_range("seed_start", self.seed_start, 0, 2**31 - 1 - self.seeds)
+        )
+        object.__setattr__(self, "steps", check_int_in_range("steps", self.steps, 1, 1_000_000))
         check_bool("traffic", self.traffic)
         check_bool("oracle", self.oracle)
         check_bool("friction", self.friction)

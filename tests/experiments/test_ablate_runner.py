@@ -161,3 +161,12 @@ def test_invalid_grid_values_are_clear_errors(kw, name):
 def test_an_output_directory_that_is_not_a_path_is_refused_by_name(out):
     with pytest.raises(SimroadError, match=r"^out: expected a directory path"):
         run_ablation(GRID, out, workers=1, progress=False, cell_fn=stub_cell)  # was pathlib's TypeError
+
+
+def test_grid_counts_given_as_integral_floats_or_numpy_integers_are_plain_ints():
+    import numpy as np
+
+    grid = AblationGrid(seeds=2.0, seed_start=np.int64(1), steps=np.int32(3))
+    assert (grid.seeds, grid.seed_start, grid.steps) == (2, 1, 3)
+    assert all(type(v) is int for v in (grid.seeds, grid.seed_start, grid.steps))
+    assert sorted({s.seed for s in grid.specs()}) == [1, 2]  # seeds=2.0 raised range()'s TypeError
