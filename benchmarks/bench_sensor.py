@@ -1,4 +1,10 @@
-"""The camera sensor (camera_effects) vs the bare camera frame it follows, side by side."""
+"""The camera sensor (camera_effects) vs the bare camera frame it follows, side by side.
+
+The sensor is called as :class:`simroad.envs.RoadCamEnv` calls it, with the renderer's
+face ids: the renderer has motion-blurred the ground in its texture, so the sensor blurs
+only the objects. A row without face ids times the image-space blur of every pixel (what a
+frame from elsewhere gets); it has no target.
+"""
 
 from __future__ import annotations
 
@@ -41,9 +47,18 @@ def main() -> None:
 
             def run(s=sensor, f=frame, v=speed, ev=settled):
                 s.ev = ev  # the settled exposure every call
-                s.apply(f.rgb, speed_m_s=v, depth=f.depth)
+                s.apply(f.rgb, speed_m_s=v, depth=f.depth, face_id=f.face_id)  # as RoadCamEnv calls it
 
             candidates[f"{name} {w}x{h}"] = run
+            if name.startswith("sensor, default"):
+                # without the renderer's face ids every pixel is blurred in image space (a
+                # photograph or a user's frame); the renderer blurs the ground in its texture
+
+                def run_all(s=sensor, f=frame, v=speed, ev=settled):
+                    s.ev = ev
+                    s.apply(f.rgb, speed_m_s=v, depth=f.depth)
+
+                candidates[f"sensor, default, every pixel blurred {w}x{h}"] = run_all
         times = interleaved(candidates, repeats=40 if w > 320 else 150)
         print(
             table(
