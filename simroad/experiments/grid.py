@@ -206,7 +206,7 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     if p.is_dir():
         raise SimroadError(f"config: {str(p)!r} is a directory; give a TOML file such as {str(p / 'grid.toml')!r}.")
     try:
-        data = tomllib.loads(p.read_text())
+        data = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # UTF-8, with or without a BOM (Windows editors)
     except FileNotFoundError:
         raise SimroadError(f"config: file {str(p)!r} not found.") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

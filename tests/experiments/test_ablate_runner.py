@@ -147,6 +147,21 @@ def test_config_file_unknown_key_names_key_and_file(tmp_path):
     assert "seedz" in str(err.value) and "grid.toml" in str(err.value) and "Did you mean 'seeds'" in str(err.value)
 
 
+def test_a_config_saved_with_a_byte_order_mark_reads_like_one_without(tmp_path):
+    text = 'scenarios = ["winding"]\nseeds = 2\n'
+    plain, bom = tmp_path / "plain.toml", tmp_path / "bom.toml"
+    plain.write_text(text, encoding="utf-8")
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    assert load_grid_file(bom) == load_grid_file(plain) == {"scenarios": ["winding"], "seeds": 2}
+
+
+def test_a_config_that_is_not_utf8_is_refused_by_name(tmp_path):
+    cfg = tmp_path / "latin1.toml"
+    cfg.write_bytes('out = "runs/caf\xe9"\n'.encode("latin-1"))
+    with pytest.raises(SimroadError, match=r"latin1\.toml.*not valid TOML"):
+        load_grid_file(cfg)
+
+
 @pytest.mark.parametrize(
     "kw, name",
     [({"scenarios": "racetrak"}, "scenarios"), ({"noises": "rian"}, "noise"), ({"severities": "1.5"}, "severities"),
