@@ -167,16 +167,16 @@ class PinholeCamera:
         Returns
         -------
         ndarray, float64, shape (N, 2)
-            World ``(x, y)`` in metres; NaN for pixels above the horizon or whose
-            ground point lies beyond ``max_range_m``.
+            World ``(x, y)`` in metres; NaN for pixels above the horizon, whose
+            ground point lies beyond ``max_range_m``, or that are not finite.
         """
         uv = _as_points("uv", uv)
-        hom = np.column_stack([uv, np.ones(len(uv))]) @ self.H_world_from_image.T
-        # Rays that miss the ground give w <= 0 in the ego Z-down construction;
-        # recompute via the ray direction to decide validity.
-        rays_cam = np.column_stack([uv, np.ones(len(uv))]) @ self.K_inv.T
-        dz = (rays_cam @ self._R_ego)[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # non-finite points give NaN
+            hom = np.column_stack([uv, np.ones(len(uv))]) @ self.H_world_from_image.T
+            # Rays that miss the ground give w <= 0 in the ego Z-down construction;
+            # recompute via the ray direction to decide validity.
+            rays_cam = np.column_stack([uv, np.ones(len(uv))]) @ self.K_inv.T
+            dz = (rays_cam @ self._R_ego)[:, 2]
             xy = hom[:, :2] / hom[:, 2:3]
         cam = self.position_world
         dist = np.hypot(xy[:, 0] - cam[0], xy[:, 1] - cam[1])
@@ -195,12 +195,13 @@ class PinholeCamera:
         Returns
         -------
         ndarray, float64, shape (N, 2)
-            Pixel ``(x=column, y=row)``; NaN for points behind the camera. Points in
-            front of the camera but outside the frame get coordinates outside it.
+            Pixel ``(x=column, y=row)``; NaN for points behind the camera or not
+            finite. Points in front of the camera but outside the frame get
+            coordinates outside it.
         """
         xy = _as_points("xy", xy)
-        hom = np.column_stack([xy, np.ones(len(xy))]) @ self.H_image_from_world.T
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):  # non-finite points give NaN
+            hom = np.column_stack([xy, np.ones(len(xy))]) @ self.H_image_from_world.T
             uv = hom[:, :2] / hom[:, 2:3]
         uv[hom[:, 2] <= 1e-9] = np.nan
         return uv
@@ -229,7 +230,14 @@ class PinholeCamera:
 
 
 def _as_points(name: str, pts: np.ndarray) -> np.ndarray:
-    arr = np.asarray(pts, dtype=float)
+    """``pts`` as float64 (N, 2); one point (2,) becomes (1, 2). Non-finite points stay
+    (they map to NaN: "no such point", as a ray that misses the ground)."""
+    try:
+        arr = np.asarray(pts, dtype=float)
+    except (TypeError, ValueError):
+        raise SimroadError(
+            f"{name}: expected numbers of shape (N, 2), got {type(pts).__name__} {str(pts)[:60]!r}."
+        ) from None
     if arr.ndim == 1 and arr.shape[0] == 2:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 2:

@@ -105,3 +105,22 @@ def test_out_of_range_camera_options_name_the_parameter_and_range(kw, name):
 def test_points_must_be_n_by_2():
     with pytest.raises(SimroadError, match="uv"):
         _cam().image_to_ground(np.zeros((4, 3)))
+
+
+@pytest.mark.parametrize("bad", ["abc", [["a", "b"]], [[1.0, 2.0], [3.0]], {"x": 1}])
+def test_points_that_are_not_numbers_are_refused_by_name(bad):
+    cam = PinholeCamera(CameraConfig())
+    for method, name in ((cam.ground_to_image, "xy"), (cam.image_to_ground, "uv")):
+        with pytest.raises(SimroadError, match=f"{name}: expected numbers of shape"):
+            method(bad)
+
+
+def test_non_finite_points_map_to_nan_and_leave_the_others_alone():
+    cam = PinholeCamera(CameraConfig())
+    good_xy, good_uv = [[20.0, 1.0]], [[100.0, 150.0]]
+    xy = cam.ground_to_image([[np.nan, 0.0], [np.inf, 0.0], *good_xy])
+    uv = cam.image_to_ground([[np.nan, 100.0], [-np.inf, 150.0], *good_uv])
+    assert np.isnan(xy[:2]).all() and np.isnan(uv[:2]).all()
+    # the same values (to the last bits: BLAS may sum a 3-row product in another order)
+    np.testing.assert_allclose(xy[2:], cam.ground_to_image(good_xy), rtol=1e-12)
+    np.testing.assert_allclose(uv[2:], cam.image_to_ground(good_uv), rtol=1e-12)
