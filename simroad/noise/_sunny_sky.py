@@ -91,8 +91,8 @@ def clear_sky(state: FrameState, sun: tuple[float, float], weight: float) -> Non
     m = sky[r]
     # band[m] += w * (clear[m] - band[m]), the same float32 arithmetic without the boolean
     # gathers and scatter (15x faster on a 320x180 frame's sky)
-    clear -= band
-    clear *= w
+    np.subtract(clear, band, out=clear)
+    np.multiply(clear, w, out=clear)
     np.add(band, clear, out=band, where=m[..., None])
     state.sky_clear = weight
     if state.unmasked is None:
