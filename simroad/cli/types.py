@@ -136,7 +136,9 @@ def _split(value: str, example: str) -> list[str]:
     if not any(items):
         raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
     if "" in items:
-        raise SimroadError(f"value: empty item in {value!r}; separate the items by single commas, e.g. {example}.")
+        raise SimroadError(
+            f"value: empty item in {value!r}: expected items separated by single commas, e.g. {example}."
+        )
     _refuse_repeats(value, items)
     return items
 
@@ -144,7 +146,7 @@ def _split(value: str, example: str) -> list[str]:
 def _refuse_repeats(value: str, items: Sequence[Any]) -> None:
     dup = [v for k, v in enumerate(items) if v in items[:k]]
     if dup:
-        raise SimroadError(f"value: {dup[0]!r} is listed more than once in {value!r}; give each item once.")
+        raise SimroadError(f"value: {dup[0]!r} is listed more than once in {value!r}: expected each item once.")
 
 
 def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
