@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from simroad.detector.detector import MIN_IMAGE_SIZE, RoadDetector, default_model_path
 from simroad.detector.features import hsi, pixel_features
-from simroad.detector.morphology import fill_holes, keep_ego_component, postprocess
+from simroad.detector.morphology import extend_upward, fill_holes, keep_ego_component, postprocess
 from simroad.detector.persistence import check_model_destination
 from simroad.detector.svm import KernelExpansion
 from simroad.detector.training import train_default
@@ -18,6 +18,7 @@ __all__ = [
     "apply_filters",
     "check_model_destination",
     "default_model_path",
+    "extend_upward",
     "fill_holes",
     "hsi",
     "keep_ego_component",

@@ -36,7 +36,7 @@ from simroad._validation import (
 from simroad.detector.features import N_FEATURES, _features_f
 from simroad.detector.growth import GROW_TOLERANCE, _across_lobe, _as_uint8, _grow
 from simroad.detector.lut import ColourTable
-from simroad.detector.morphology import _ego_component, _fill_holes
+from simroad.detector.morphology import _ego_component, _fill_holes, extend_upward
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
 from simroad.detector.pixels import (
     IMAGE_DTYPES,
@@ -258,12 +258,8 @@ class RoadDetector(BaseEstimator):
         image = check_image("image", image, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
-        if check_bool("exact", exact):
-            rgb, acted = filtered_rgb_masks(image, filters, variant)
-            mask = self._decide_rgb(rgb).reshape(image.shape[:2])
-        else:
-            planes, acted = filtered_table_planes_masks(image, filters, variant)
-            mask = self.lut_.lookup(planes)
+        exact = check_bool("exact", exact)
+        mask, acted = self._classify(image, filters, variant, exact)
         if check_bool("morphology", self.morphology):
             ground = getattr(self, "ground_", None)
             if ground is not None and variant == "improved" and ground.shape == mask.shape:
@@ -271,6 +267,20 @@ class RoadDetector(BaseEstimator):
             else:
                 ground = None
             mask = _ego_component(mask)
+            haze = acted.get("rain_snow") if variant == "improved" else None
+            if haze is not None and haze.any():  # not §III: the rain/snow filter extends the road upwards
+                # Removing the veil recovers the far road; near a pale verge the classifier
+                # calls road (kept apart from the road by a painted line) it also joins the
+                # two through the far rows, and the ego's component takes the whole verge.
+                # What the filter adds is kept only where it continues, upwards, the road
+                # found without it.
+                others = tuple(f for f in filters if f != "rain_snow")
+                ref = self._classify(image, others, variant, exact)[0]
+                if ground is not None:
+                    ref &= ground
+                ref = _fill_holes(_ego_component(ref)) & mask
+                if ref.any():
+                    mask = extend_upward(mask, ref)
             lobe = acted.get("light") if variant == "improved" else None
             if lobe is not None and lobe.any():  # not §III: the road through the glare lobe the filter removed
                 # Under a sun's lobe the colour classifier fails beside it (the exposure
@@ -289,6 +299,17 @@ class RoadDetector(BaseEstimator):
                     mask = grown
             mask = _fill_holes(mask)
         return mask
+
+    def _classify(
+        self, image: np.ndarray, filters: tuple[str, ...], variant: str, exact: bool
+    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """The per-pixel road mask of ``image`` after ``filters`` (the lookup table, or the
+        SVM at every pixel when ``exact``) and where each filter acted."""
+        if exact:
+            rgb, acted = filtered_rgb_masks(image, filters, variant)
+            return self._decide_rgb(rgb).reshape(image.shape[:2]), acted
+        planes, acted = filtered_table_planes_masks(image, filters, variant)
+        return self.lut_.lookup(planes), acted
 
     def _growth_bound(self, ground: np.ndarray | None, lobe: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
         """Where region growth may go: the camera's ground (below the horizon) when the

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from numba import njit
 
 from simroad._validation import check_mask
 
-__all__ = ["fill_holes", "keep_ego_component", "postprocess"]
+__all__ = ["extend_upward", "fill_holes", "keep_ego_component", "postprocess"]
 
 #: Bottom-centre window where the ego stands: last 1/8 of the rows, middle third of columns.
 _EGO_ROWS = 8
@@ -44,6 +45,57 @@ def _fill_holes(mask: np.ndarray) -> np.ndarray:
     np.logical_not(mask, out=background[1:-1, 1:-1].view(bool))
     cv2.floodFill(background, None, (0, 0), 2, flags=4)
     return background[1:-1, 1:-1] != 2
+
+
+@njit(cache=True, nogil=True)
+def _extend_upward(road: np.ndarray, seed: np.ndarray, out: np.ndarray) -> None:
+    """``out``: the runs of ``road`` (a row's horizontal stretches) that hold a ``seed``
+    pixel or touch (8-connected) a run already kept in the row below, from the bottom
+    row up."""
+    h, w = road.shape
+    for r in range(h - 1, -1, -1):
+        x = 0
+        while x < w:
+            if not road[r, x]:
+                x += 1
+                continue
+            start, hit = x, False
+            while x < w and road[r, x]:
+                if not hit:
+                    if seed[r, x]:
+                        hit = True
+                    elif r + 1 < h and (
+                        out[r + 1, x] or (x > 0 and out[r + 1, x - 1]) or (x + 1 < w and out[r + 1, x + 1])
+                    ):
+                        hit = True
+                x += 1
+            if hit:
+                out[r, start:x] = True
+
+
+def extend_upward(road: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """The part of ``road`` that ``seed`` reaches going up the image: a row's run of road
+    is kept when it holds a seed pixel or touches a kept run in the row below.
+
+    On flat ground the road seen from the car only recedes upwards, so what a filter
+    adds to the road it finds without the filter is the far road above it; a region
+    that joins the road only through rows above it (a verge the classifier calls road,
+    which a painted line kept apart near the car) is not reached.
+
+    Parameters
+    ----------
+    road, seed : ndarray, bool, (H, W)
+
+    Returns
+    -------
+    ndarray, bool, (H, W)
+        A subset of ``road``.
+    """
+    road = np.ascontiguousarray(check_mask("road", road))
+    seed = np.ascontiguousarray(check_mask("seed", seed, road.shape))
+    out = np.zeros(road.shape, bool)
+    _extend_upward(road, seed, out)
+    return out
 
 
 def keep_ego_component(mask: np.ndarray) -> np.ndarray:

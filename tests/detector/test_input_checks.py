@@ -106,6 +106,12 @@ CASES: dict[str, list[Case]] = {
         ("type", lambda: D.check_model_destination(5), "path"),
         ("range", lambda: D.check_model_destination("/proc/no/such/dir/m.npz"), "path"),
     ],
+    "extend_upward": [
+        *[(kind, call, "road") for kind, call, _ in _mask_cases(lambda m: D.extend_upward(m, MASK))],
+        ("type", lambda: D.extend_upward(MASK, MASK.tolist()), "seed"),
+        ("range", lambda: D.extend_upward(MASK, MASK.astype(np.int64) * 2), "seed"),
+        ("shape", lambda: D.extend_upward(MASK, MASK[:, :-1]), "seed"),
+    ],
     "fill_holes": _mask_cases(D.fill_holes),
     "hsi": _image_cases(D.hsi),
     "keep_ego_component": _mask_cases(D.keep_ego_component),

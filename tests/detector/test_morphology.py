@@ -7,7 +7,7 @@ import pytest
 from scipy import ndimage
 
 from simroad import SimroadError
-from simroad.detector import fill_holes, keep_ego_component, postprocess
+from simroad.detector import extend_upward, fill_holes, keep_ego_component, postprocess
 
 
 @pytest.mark.parametrize("seed", range(8))
@@ -59,3 +59,39 @@ def test_morphology_rejects_bad_masks():
         fill_holes(np.zeros((4, 4), np.float32))
     with pytest.raises(SimroadError, match="mask: expected a 2-D"):
         keep_ego_component(np.zeros((4, 4, 1), bool))
+
+
+def test_extend_upward_keeps_the_far_road_and_drops_a_verge_joined_only_above_by_hand():
+    road = np.zeros((6, 8), bool)
+    road[2:, 1:3] = True  # the road near the car: columns 1-2
+    road[0:2, 1:7] = True  # far rows: the road, and the verge joined to it
+    road[3:, 5:7] = True  # the verge near the car, apart from the road
+    seed = np.zeros_like(road)
+    seed[4:, 1:3] = True  # the road found without the filter
+    want = np.zeros_like(road)
+    want[2:, 1:3] = True  # the road, up from the seed
+    want[0:2, 1:7] = True  # the far rows, reached from the row below
+    assert np.array_equal(extend_upward(road, seed), want)
+    # a run touching the kept run below only diagonally is kept (8-connected)
+    diag = np.zeros((2, 4), bool)
+    diag[1, 0] = diag[0, 1] = True
+    bottom = np.zeros_like(diag)
+    bottom[1, 0] = True
+    assert np.array_equal(extend_upward(diag, bottom), diag)
+    assert not extend_upward(diag, ~bottom & diag)[1, 0]  # never down
+
+
+def test_extend_upward_is_a_subset_of_the_road_holding_every_seeded_run():
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        road = rng.random((30, 40)) < 0.6
+        seed = road & (rng.random((30, 40)) < 0.05)
+        out = extend_upward(road, seed)
+        assert not (out & ~road).any() and not (seed & ~out).any()
+        # every kept pixel is reached: its run holds a seed or touches a kept pixel below
+        assert np.array_equal(extend_upward(road, out), out)
+
+
+def test_extend_upward_refuses_masks_of_other_shapes_by_name():
+    with pytest.raises(SimroadError, match="seed"):
+        extend_upward(np.ones((4, 4), bool), np.ones((4, 5), bool))
