@@ -322,27 +322,27 @@ def check_output_file(name: str, path: Any, *, suffixes: Iterable[str] | None = 
     return p
 
 
-def check_input_dir(name: str, path: Any) -> Path:
-    """Check that ``path`` names an existing directory; return a Path."""
+def _check_input_path(name: str, path: Any, kind: str) -> Path:
+    """``path`` as a Path naming an existing ``kind`` (``"directory"`` or ``"file"``)."""
     if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
-        raise SimroadError(f"{name}: expected a directory path, got {type(path).__name__} {path!r}.")
+        raise SimroadError(f"{name}: expected a {kind} path, got {type(path).__name__} {path!r}.")
     p = Path(path)
     if not p.exists():
-        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing directory.")
-    if not p.is_dir():
-        raise SimroadError(f"{name}: {str(p)!r} is not a directory; expected an existing directory.")
+        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing {kind}.")
+    if not (p.is_dir() if kind == "directory" else p.is_file()):
+        what = "a directory" if kind == "directory" else "a regular file (a directory?)"
+        raise SimroadError(f"{name}: {str(p)!r} is not {what}; expected an existing {kind}.")
     return p
+
+
+def check_input_dir(name: str, path: Any) -> Path:
+    """Check that ``path`` names an existing directory; return a Path."""
+    return _check_input_path(name, path, "directory")
 
 
 def check_input_file(name: str, path: Any) -> Path:
     """Check that ``path`` names an existing, readable regular file; return a Path."""
-    if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
-        raise SimroadError(f"{name}: expected a file path, got {type(path).__name__} {path!r}.")
-    p = Path(path)
-    if not p.exists():
-        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing file.")
-    if not p.is_file():
-        raise SimroadError(f"{name}: {str(p)!r} is not a regular file (a directory?); expected a file.")
+    p = _check_input_path(name, path, "file")
     if not os.access(p, os.R_OK):
         raise SimroadError(f"{name}: {str(p)!r} is not readable; check its permissions.")
     return p
