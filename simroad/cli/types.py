@@ -128,13 +128,15 @@ def float_in(low: float, high: float, *, unit: str = "") -> Callable[[str], floa
     return _typed(convert, "number", [*bad, ("above the range", str(high + 1))])
 
 
-def _split(value: str, example: str) -> list[str]:
+def _split(value: str, example: str, what: str | None = None) -> list[str]:
     """The items of a comma-separated list, stripped; an empty list, an empty item
     (``a,,b``, ``a,``) or an item given twice is refused (a sweep or table would
-    otherwise silently drop or repeat it)."""
+    otherwise silently drop or repeat it). ``what``: the list's description in the
+    empty list's message (default: a comma-separated list such as ``example``)."""
     items = [v.strip() for v in value.split(",")]
     if not any(items):
-        raise SimroadError(f"value: expected a comma-separated list such as {example}, got {value!r}.")
+        what = what or f"a comma-separated list such as {example}"
+        raise SimroadError(f"value: expected {what}, got {value!r}.")
     if "" in items:
         raise SimroadError(
             f"value: empty item in {value!r}: expected items separated by single commas, e.g. {example}."
@@ -155,10 +157,8 @@ def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:
 
     def convert(value: str) -> tuple[float, ...]:
         try:
-            items = _split(value, "0.3,0.7")
+            items = _split(value, "0.3,0.7", what)
         except SimroadError as exc:
-            if not any(v.strip() for v in value.split(",")):
-                raise argparse.ArgumentTypeError(f"expected {what}, got {value!r}.") from None
             raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
         out = []
         for item in items:
@@ -195,9 +195,8 @@ def choice_list(valid: Sequence[str]) -> Callable[[str], tuple[str, ...]]:
     """Comma-separated names, each one of ``valid``."""
 
     def check(value: str) -> tuple[str, ...]:
-        if not any(v.strip() for v in value.split(",")):
-            raise SimroadError(f"value: expected comma-separated names from {', '.join(valid)}, got {value!r}.")
-        return tuple(check_choice("value", v, valid) for v in _split(value, ",".join(valid[:2])))
+        items = _split(value, ",".join(valid[:2]), f"comma-separated names from {', '.join(valid)}")
+        return tuple(check_choice("value", v, valid) for v in items)
 
     bad = [("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5")]
     bad += [("empty item", f"{valid[0]},,{valid[-1]}"), ("repeated", f"{valid[0]},{valid[0]}")]
