@@ -17,8 +17,8 @@ import warnings
 import numpy as np
 from _harness import interleaved, one_core, table
 
+from simroad.experiments.scene import SCENE_EGO_SPEED_M_S, sample_scene
 from simroad.noise import NoiseContext, make_weather
-from simroad.noise.scene import SCENE_EGO_SPEED_M_S, sample_scene
 
 TARGET_MS = 2.0
 SEVERITIES = (0.5, 1.0)

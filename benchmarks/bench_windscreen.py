@@ -26,8 +26,8 @@ from collections.abc import Callable
 import numpy as np
 from _harness import bare_racetrack_step, one_core, table
 
+from simroad.experiments.scene import SCENE_EGO_SPEED_M_S, SCENE_POSE, sample_scene
 from simroad.noise import NoiseContext, WindscreenModel, WindscreenParams, make_weather
-from simroad.noise.scene import SCENE_EGO_SPEED_M_S, SCENE_POSE, sample_scene
 
 TARGET_MS = 1.0
 CASES = (

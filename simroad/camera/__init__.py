@@ -1,10 +1,11 @@
 """The dashboard camera: world raster, pinhole geometry, rendering with ground truth."""
 
 from simroad.camera.bev import render_bev
+from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.render import CameraRenderer, Frame, VehicleBox
 from simroad.camera.sensor import Sensor, SensorParams
-from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE, WorldRaster
+from simroad.camera.world import WorldRaster
 
 __all__ = [
     "ASPHALT",

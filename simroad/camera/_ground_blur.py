@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from simroad.camera._blur_kernel import decode, decode_rounded
+from simroad.core.radiometry import linear_to_srgb, srgb_to_linear
 
 __all__ = ["RowBlur", "blur_start_row", "box_blur_texture", "row_blur_px", "segment_kernel"]
 
@@ -27,7 +28,6 @@ __all__ = ["RowBlur", "blur_start_row", "box_blur_texture", "row_blur_px", "segm
 @functools.cache
 def _tables() -> tuple[np.ndarray, np.ndarray]:
     """sRGB code to linear radiance x 65535, and every 16-bit value back to its code."""
-    from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear  # noise imports the camera
 
     codes = np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2)
     to_linear = np.round(srgb_to_linear(codes)[0, :, 0] * 65535.0).astype(np.uint16).reshape(1, 256)

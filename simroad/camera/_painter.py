@@ -29,6 +29,7 @@ from simroad.camera import _raster
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.lighting import radiance
 from simroad.camera.mesh import Mesh
+from simroad.core.radiometry import linear_to_srgb
 
 __all__ = ["DECAL_LOD_PX", "LOD_PX", "NEAR_M", "MeshPainter", "clip_near", "face_colours"]
 
@@ -59,7 +60,6 @@ def clip_near(poly: np.ndarray, near: float = NEAR_M) -> np.ndarray:
 
 def face_colours(mesh: Mesh) -> np.ndarray:
     """Flat sRGB colour (uint8 (F, 3)) of every face under the clear-weather light."""
-    from simroad.noise.radiometry import linear_to_srgb  # the project's gamma (noise imports camera)
 
     if not len(mesh):
         return np.zeros((0, 3), dtype=np.uint8)

@@ -15,8 +15,8 @@ import math
 import numpy as np
 
 from simroad.camera._scenery_solids import CANOPY_TEMPLATES, SolidBuilder, rect
+from simroad.camera.codes import BUILDING, GUARDRAIL, OVERPASS, POLE, SIGN, VEGETATION, WALL
 from simroad.camera.materials import draw_albedo
-from simroad.camera.world import BUILDING, GUARDRAIL, OVERPASS, POLE, SIGN, VEGETATION, WALL
 
 __all__ = ["building", "guard_rail", "overpass", "sign", "street_light", "tree", "tree_radius", "wall"]
 

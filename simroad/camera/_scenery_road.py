@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from highway_env.road.lane import CircularLane, SineLane, StraightLane
 
-from simroad.camera.lanes import lane_signed_distance, supports_vectorised
+from simroad.core.lanes import lane_signed_distance, supports_vectorised
 
 __all__ = ["EDGE_STEP_M", "RoadIndex", "lane_positions"]
 

@@ -15,9 +15,9 @@ import functools
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError
 from simroad.camera._blur_kernel import NEAR_RADII, face_edges, radial_blur
-from simroad.noise.radiometry import linear_to_srgb
+from simroad.core.radiometry import linear_to_srgb
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "NoiseTile",
@@ -213,9 +213,11 @@ def radial_motion_blur(
         ``lin``, blurred.
     """
     if lin.dtype != np.float32 or lin.ndim != 3 or lin.shape[2] != 3 or not lin.flags.c_contiguous:
-        raise SimroadError(f"lin: expected a C-contiguous float32 (H, W, 3) array, got {lin.dtype} {lin.shape}.")
+        raise InvalidParameterError(
+            f"lin: expected a C-contiguous float32 (H, W, 3) array, got {lin.dtype} {lin.shape}."
+        )
     if scale.shape != lin.shape[:2]:
-        raise SimroadError(f"scale: expected shape {lin.shape[:2]} (the frame's), got {scale.shape}.")
+        raise InvalidParameterError(f"scale: expected shape {lin.shape[:2]} (the frame's), got {scale.shape}.")
     radial_blur(lin, np.ascontiguousarray(scale, np.float32), float(cx), float(foe_row), float(max_step_px))
     return lin
 
@@ -351,5 +353,5 @@ def jpeg_roundtrip(rgb: np.ndarray, quality: int) -> np.ndarray:
     ok, buf = cv2.imencode(".jpg", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR) if ok else None
     if decoded is None:
-        raise SimroadError("jpeg_quality: OpenCV could not encode and decode the frame as JPEG.")
+        raise InvalidParameterError("jpeg_quality: OpenCV could not encode and decode the frame as JPEG.")
     return cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB)

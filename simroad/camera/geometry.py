@@ -22,7 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range, check_int_in_range
+from simroad.core.validation import check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = ["CameraConfig", "PinholeCamera"]
 
@@ -235,11 +236,11 @@ def _as_points(name: str, pts: np.ndarray) -> np.ndarray:
     try:
         arr = np.asarray(pts, dtype=float)
     except (TypeError, ValueError):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected numbers of shape (N, 2), got {type(pts).__name__} {str(pts)[:60]!r}."
         ) from None
     if arr.ndim == 1 and arr.shape[0] == 2:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 2:
-        raise SimroadError(f"{name}: expected an array of shape (N, 2), got shape {arr.shape}.")
+        raise InvalidParameterError(f"{name}: expected an array of shape (N, 2), got shape {arr.shape}.")
     return arr

@@ -10,7 +10,7 @@ horizontal surface under the unoccluded sky:
 
 (the sky-view and ground-view factors of a plane with unit normal ``n``). A perfect
 white horizontal surface maps to ``NOMINAL_EXPOSURE``; values above 1 clip at white.
-The frame is encoded with the project's gamma (:mod:`simroad.noise.radiometry`).
+The frame is encoded with the project's gamma (:mod:`simroad.core.radiometry`).
 """
 
 from __future__ import annotations

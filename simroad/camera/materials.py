@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import check_choice
+from simroad.core.validation import check_choice
 
 __all__ = ["ALBEDO", "AlbedoRange", "draw_albedo"]
 

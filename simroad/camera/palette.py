@@ -15,18 +15,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import check_choice
 from simroad.camera.materials import draw_albedo
+from simroad.core.names import PROFILES
+from simroad.core.validation import check_choice
 
-__all__ = ["PROFILES", "ROADSIDE_KINDS", "SHOULDER_KINDS", "Palette", "draw_palette"]
+__all__ = ["ROADSIDE_KINDS", "SHOULDER_KINDS", "Palette", "draw_palette"]
 
 #: Roadside materials a palette can use (``dirt`` is dry soil, ``pavement`` concrete).
 ROADSIDE_KINDS = ("grass", "dirt", "gravel", "pavement")
 #: Rural shoulder materials.
 SHOULDER_KINDS = ("gravel", "dirt", "concrete")
-#: Cross-sections: ``rural`` road + shoulder + roadside; ``urban`` road + kerb +
-#: sidewalk + roadside.
-PROFILES = ("rural", "urban")
 
 # Probability that a world's road is aged asphalt (most roads in service are).
 _P_AGED = 0.8

@@ -21,15 +21,16 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError
 from simroad.camera import _ground_blur, _raster
 from simroad.camera._painter import NEAR_M, MeshPainter
+from simroad.camera.codes import SKY
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
 from simroad.camera.vehicles import vehicles_mesh
 from simroad.camera.window import Window
-from simroad.camera.world import SKY, WorldRaster
+from simroad.camera.world import WorldRaster
+from simroad.errors import InvalidParameterError
 
 __all__ = ["AO_STRENGTH", "CameraRenderer", "Frame", "VehicleBox"]
 
@@ -206,7 +207,7 @@ class CameraRenderer:
         """
         motion_m = float(motion_m)
         if not (math.isfinite(motion_m) and motion_m >= 0.0):
-            raise SimroadError(f"motion_m: expected a distance >= 0 in metres, got {motion_m!r}.")
+            raise InvalidParameterError(f"motion_m: expected a distance >= 0 in metres, got {motion_m!r}.")
         cam = self.camera
         cam.set_pose(*pose)
         fp = self.footprint_world()

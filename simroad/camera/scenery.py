@@ -41,13 +41,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range
 from simroad.camera import _scenery_kinds as kinds
 from simroad.camera._scenery_conflicts import Candidates, kept_objects
 from simroad.camera._scenery_road import RoadIndex
 from simroad.camera._scenery_solids import SolidBuilder, outline, rect
 from simroad.camera.materials import draw_albedo
 from simroad.camera.mesh import Mesh
+from simroad.core.validation import check_choice, check_in_range
 
 __all__ = ["HIGH_M", "PROFILES", "RANK", "STRETCH_M", "Scenery", "SceneryProfile"]
 

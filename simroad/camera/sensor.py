@@ -28,40 +28,28 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
 from simroad.camera._blur_kernel import decode, face_share, radial_blur_depth, radial_blur_frame
 from simroad.camera._sensor_kernel import expose_frame
 from simroad.camera._sensor_ops import (
     NoiseTile,
     adc_response_lut,
-    add_noise_dn,
     gain_row_buffers,
     inv_cos_bearing,
     jpeg_roundtrip,
-    motion_blur_scale,
     near_edge_maps,
     ones_map,
-    radial_motion_blur,
-    response_curve,
-    vignetting_gain,
     vignetting_map,
 )
 from simroad.camera.geometry import PinholeCamera
-from simroad.noise.radiometry import srgb_to_linear
+from simroad.core.radiometry import srgb_to_linear
+from simroad.core.validation import check_bool, check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = [
-    "NoiseTile",
     "Sensor",
     "SensorParams",
-    "adc_response_lut",
-    "add_noise_dn",
     "apply_sensor",
     "auto_exposure_update",
-    "jpeg_roundtrip",
-    "motion_blur_scale",
-    "radial_motion_blur",
-    "response_curve",
-    "vignetting_gain",
 ]
 
 
@@ -289,7 +277,7 @@ def apply_sensor(
             else:
                 ids = np.asarray(face_id)
                 if ids.shape != (h, w) or ids.dtype != np.int32:
-                    raise SimroadError(
+                    raise InvalidParameterError(
                         f"face_id: expected an int32 array of the frame's shape {(h, w)}, got {ids.dtype} {ids.shape}."
                     )
                 ids = np.ascontiguousarray(ids)
@@ -380,7 +368,7 @@ class Sensor:
 
     def __init__(self, params: SensorParams, camera: PinholeCamera) -> None:
         if not isinstance(params, SensorParams):
-            raise SimroadError(f"params: expected a SensorParams, got {type(params).__name__}.")
+            raise InvalidParameterError(f"params: expected a SensorParams, got {type(params).__name__}.")
         self.params = params
         self.camera = camera
         self.ev = 0.0
@@ -392,7 +380,7 @@ class Sensor:
     def reset(self, rng: np.random.Generator) -> None:
         """Start an episode: exposure back to nominal, noise field drawn from ``rng``."""
         if not isinstance(rng, np.random.Generator):
-            raise SimroadError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}.")
+            raise InvalidParameterError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}.")
         self._rng = rng
         self.ev = 0.0
         self._settled = not self.params.auto_exposure
@@ -425,7 +413,7 @@ class Sensor:
         ``face_id`` (the renderer's ``Frame.face_id``) leaves the ground's motion blur
         to the renderer (see :func:`apply_sensor`)."""
         if self._rng is None:
-            raise SimroadError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
+            raise InvalidParameterError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
         if not self._settled:
             # A camera settles its exposure before it streams: the first frame is
             # metered at the nominal exposure and exposed at the target.

@@ -33,9 +33,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.lighting import NOMINAL_EXPOSURE
+from simroad.core.radiometry import linear_to_srgb
+from simroad.core.validation import check_choice, check_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "CIE_SKY_TYPES",
@@ -252,13 +254,12 @@ def sky_image(
     Every pixel gets a value (the ground is drawn over it); rays below the horizon
     take the horizon's radiance. Values above white saturate at 255.
     """
-    from simroad.noise.radiometry import linear_to_srgb  # here: simroad.noise imports simroad.camera
 
     if isinstance(condition, SkySpec):
         sky = condition
     else:
         if not isinstance(sun, Sun):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"sun: expected a simroad.camera.sky.Sun with a condition name, got {type(sun).__name__}. "
                 "Pass sun=Sun(azimuth_deg, elevation_deg) or a SkySpec."
             )

@@ -4,7 +4,7 @@ Each material of a :class:`~simroad.camera.palette.Palette` becomes a square til
 that wraps seamlessly (so any window of the world samples it consistently): albedo
 maps built in linear RGB (grain, blotches, patches, joints), lit by the clear-
 weather sky (:func:`simroad.camera.lighting.radiance`) and gamma-encoded to sRGB
-uint8 (:func:`simroad.noise.radiometry.linear_to_srgb`).
+uint8 (:func:`simroad.core.radiometry.linear_to_srgb`).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import numpy as np
 
 from simroad.camera.lighting import radiance
 from simroad.camera.palette import Palette
+from simroad.core.radiometry import linear_to_srgb
 
 __all__ = ["ground_textures", "periodic_noise", "wear_factor"]
 
@@ -170,7 +171,6 @@ def _kerb(base, size: int, texel_m: float, rng: np.random.Generator) -> np.ndarr
 
 
 def _encode(albedo: np.ndarray) -> np.ndarray:
-    from simroad.noise.radiometry import linear_to_srgb  # here: simroad.noise imports simroad.camera
 
     return linear_to_srgb(radiance(np.clip(albedo, 0.0, 1.0).astype(np.float32)))
 

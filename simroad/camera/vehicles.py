@@ -22,10 +22,11 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
+from simroad.camera.codes import VEHICLE
 from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.camera.materials import ALBEDO
 from simroad.camera.mesh import MAX_VERTICES, Mesh
-from simroad.camera.world import VEHICLE
+from simroad.core.radiometry import GAMMA
 
 __all__ = ["PAINTS", "Paint", "box_mesh", "draw_paint", "paint_rgb", "vehicle_mesh", "vehicles_mesh"]
 
@@ -79,7 +80,6 @@ def draw_paint(rng: np.random.Generator) -> tuple[str, np.ndarray]:
 def paint_rgb(albedo: np.ndarray) -> tuple[int, int, int]:
     """sRGB colour (0..255) of a horizontal surface of linear ``albedo`` in clear weather
     (the bird's-eye view's colour of a car)."""
-    from simroad.noise.radiometry import GAMMA  # noise imports camera: import when used
 
     lin = np.clip(NOMINAL_EXPOSURE * np.asarray(albedo, dtype=float), 0.0, 1.0)
     r, g, b = (int(round(255.0 * x ** (1.0 / GAMMA))) for x in lin)
@@ -329,6 +329,5 @@ def _box_paint(box) -> np.ndarray:
     paint = getattr(box, "paint", None)
     if paint is not None:
         return np.asarray(paint, dtype=np.float32)
-    from simroad.noise.radiometry import GAMMA  # noise imports camera: import when used
 
     return (np.asarray(box.rgb, dtype=np.float32) / 255.0) ** GAMMA

@@ -26,60 +26,25 @@ from typing import Protocol
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError
 from simroad.camera._tile_kernel import compose_tile
 from simroad.camera.codes import (  # re-exported: importers of simroad.camera.world keep working
     ASPHALT,
-    BUILDING,
-    GROUND_MATERIALS,
-    GUARDRAIL,
-    IS_GROUND,
-    IS_ROAD,
     KERB,
     MARKING,
-    MATERIAL_NAMES,
-    OVERPASS,
-    POLE,
-    ROAD_MATERIALS,
     ROADSIDE,
     SHOULDER,
     SIDEWALK,
-    SIGN,
-    SKY,
-    VEGETATION,
-    VEHICLE,
-    WALL,
 )
-from simroad.camera.lanes import lane_signed_distance, supports_vectorised
 from simroad.camera.mesh import Mesh
 from simroad.camera.palette import Palette, draw_palette
 from simroad.camera.textures import ground_textures, wear_factor
 from simroad.camera.window import Window  # re-exported: importers of simroad.camera.world keep working
+from simroad.core.lanes import lane_signed_distance, supports_vectorised
+from simroad.errors import InvalidParameterError, SimroadError
 
 __all__ = [
-    "ASPHALT",
-    "BUILDING",
-    "GROUND_MATERIALS",
-    "GUARDRAIL",
-    "IS_GROUND",
-    "IS_ROAD",
-    "KERB",
-    "MARKING",
-    "MATERIAL_NAMES",
-    "OVERPASS",
-    "POLE",
-    "ROADSIDE",
-    "ROAD_MATERIALS",
-    "SHOULDER",
-    "SIDEWALK",
-    "SIGN",
-    "SKY",
-    "VEGETATION",
-    "VEHICLE",
-    "WALL",
     "LaneShape",
     "SceneryLike",
-    "Window",
     "WorldRaster",
     "lane_shapes",
 ]
@@ -102,7 +67,7 @@ def _overlaps(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
 def _check_polygons(name: str, polys: object) -> list[np.ndarray]:
     """Validate a sequence of world polygons, each (N >= 3, 2) finite metres."""
     if isinstance(polys, np.ndarray) or not isinstance(polys, Sequence):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected a sequence (list or tuple) of (N, 2) polygon arrays, got {type(polys).__name__}. "
             "Wrap a single polygon in a list."
         )
@@ -113,11 +78,11 @@ def _check_polygons(name: str, polys: object) -> list[np.ndarray]:
         except (TypeError, ValueError):
             a = np.zeros(0)
         if a.ndim != 2 or a.shape[1] != 2 or a.shape[0] < 3:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}[{k}]: expected a polygon of shape (N, 2) with N >= 3 world points (m), got shape {a.shape}."
             )
         if not np.all(np.isfinite(a)):
-            raise SimroadError(f"{name}[{k}]: expected finite coordinates, got NaN or infinity.")
+            raise InvalidParameterError(f"{name}[{k}]: expected finite coordinates, got NaN or infinity.")
         out.append(a)
     return out
 

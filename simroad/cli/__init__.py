@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
-from simroad.cli.main import build_parser, main
+from simroad.cli.main import main
+from simroad.cli.parser import build_parser
 
 __all__ = ["build_parser", "main"]

@@ -15,13 +15,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice, check_output_dir
 from simroad.cli.env_options import env_options
 from simroad.cli.types import MAX_SEED, given
+from simroad.core.validation import check_choice, check_output_dir
 from simroad.detector.registry import parse_detector_options
+from simroad.errors import InvalidParameterError
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
 from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
 from simroad.experiments.export import export_frames
 from simroad.experiments.figures import camera_figure, places_figure
@@ -30,6 +31,7 @@ from simroad.experiments.gate import check_requirements, parse_requirement
 from simroad.experiments.grid import AblationGrid, load_grid_file
 from simroad.experiments.report import build_report
 from simroad.experiments.training import train_detector
+from simroad.filters.pipeline import parse_filters
 
 __all__ = [
     "ABLATE_GRID_FLAGS",
@@ -56,7 +58,7 @@ RUN_KEYS = ("workers", "backend", "ray_address", "out")
 def seed_range(start: int, count: int) -> range:
     """``count`` seeds from ``start`` (the last one must still be a valid seed)."""
     if start + count - 1 > MAX_SEED:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"--seed-start/--seeds: the seeds {start}..{start + count - 1} pass the largest seed {MAX_SEED}; "
             "lower --seed-start or --seeds."
         )
@@ -68,7 +70,7 @@ def refuse_flags(args: argparse.Namespace, dests: tuple[str, ...], mode: str) ->
     bad = [d for d in dests if d in given(args)]
     if bad:
         flags = ", ".join("--" + d.replace("_", "-") for d in bad)
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{flags}: {'does' if len(bad) == 1 else 'do'} not apply {mode} and would be ignored; drop "
             f"{'it' if len(bad) == 1 else 'them'}."
         )
@@ -91,7 +93,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     if args.driver == "oracle" and parse_filters(args.filters):
         refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")
     if args.driver == "oracle" and (args.detector != "paper" or args.detector_option):
-        raise SimroadError(
+        raise InvalidParameterError(
             "--detector/--detector-option: not used with --driver oracle (it drives on the ground-truth mask); "
             "drop them or use --driver detector."
         )
@@ -123,7 +125,7 @@ def _detector_option_flags(items: list[str], detectors: Any, options: dict) -> d
         spec, at, pair = item.rpartition("@")
         if not at:
             if len(own) != 1:
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"--detector-option: {item!r} does not say which detector it is for; write SPEC@KEY=VALUE "
                     f"with SPEC one of {specs}."
                 )
@@ -154,12 +156,12 @@ def cmd_ablate(args: argparse.Namespace) -> int:
     if "backend" in run:
         check_choice("backend", run["backend"], BACKENDS)
     if "ray_address" in run and run.get("backend", "local") != "ray":
-        raise SimroadError(
+        raise InvalidParameterError(
             "--ray-address (ray_address): does not apply with the local backend; add --backend ray (backend = "
             '"ray" in the config) to join a Ray cluster, or drop it.'
         )
     if "ray_address" in run and "workers" in run:
-        raise SimroadError(
+        raise InvalidParameterError(
             "--workers (workers): does not apply with --ray-address (the cluster's CPUs run the episodes); drop it."
         )
     grid = AblationGrid(**opts)
@@ -201,14 +203,16 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     photos = args.images is not None or args.masks is not None
     if photos:
         if args.images is None or args.masks is None:
-            raise SimroadError("--images/--masks: give both folders (images and their road masks), or neither.")
+            raise InvalidParameterError(
+                "--images/--masks: give both folders (images and their road masks), or neither."
+            )
         refuse_flags(args, ("scenario", "seeds", "seed_start", "frames"),
                      "with --images (the frames are read from the folder, not rendered)")  # fmt: skip
     else:
         refuse_flags(args, ("weather_seed", "hfov", "pitch", "mount_height", "plot"),
                      "without --images (they set the weather on photographs)")  # fmt: skip
         if len(args.noise) != 1 or len(args.severity) != 1:
-            raise SimroadError(
+            raise InvalidParameterError(
                 "--noise/--severity: rendered frames have one weather and one severity; lists are for --images."
             )
     if photos and args.noise != ["clear"]:
@@ -250,7 +254,9 @@ def _evaluate_photos(args: argparse.Namespace) -> int:
     from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
 
     if args.figure:
-        raise SimroadError("--figure: draws rendered frames of every weather; it does not apply with --images.")
+        raise InvalidParameterError(
+            "--figure: draws rendered frames of every weather; it does not apply with --images."
+        )
     noises = [n for n in args.noise if n != "clear"]
     factory = detector_factory(args.model, args.detector, parse_detector_options(args.detector_option))
     frames = fit_to_camera(load_image_folder(args.images, args.masks))
@@ -293,7 +299,7 @@ def cmd_filter_effect(args: argparse.Namespace) -> int:
 def cmd_figure(args: argparse.Namespace) -> int:
     """``simroad figure``: draw a README figure."""
     if args.what in ("weather", "windscreen") and Path(args.out).suffix.lower() != ".png":
-        raise SimroadError(
+        raise InvalidParameterError(
             f"--out: the {args.what} figure is written as PNG; give a name ending in .png, got {args.out!r}."
         )
     if args.what == "camera":
@@ -305,11 +311,11 @@ def cmd_figure(args: argparse.Namespace) -> int:
 
         path = friction_figure(args.out)
     elif args.what == "windscreen":
-        from simroad.noise.gallery import render_wiper_sequence
+        from simroad.experiments.gallery import render_wiper_sequence
 
         path = render_wiper_sequence(args.out, seed=args.seed)
     else:
-        from simroad.noise.gallery import render_gallery
+        from simroad.experiments.gallery import render_gallery
 
         path = render_gallery(args.out, seed=args.seed)
     print(f"wrote {path}")

@@ -13,13 +13,14 @@ import inspect
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from simroad._validation import SimroadError
 from simroad.camera.geometry import CameraConfig
 from simroad.cli import types as T
+from simroad.core.names import NOISE_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES
-from simroad.noise import NOISE_NAMES, WIPER_MODES, WindscreenParams
+from simroad.errors import InvalidParameterError
+from simroad.noise import WIPER_MODES, WindscreenParams
 
 __all__ = ["add_env_options", "default_of", "env_options", "names"]
 
@@ -103,7 +104,7 @@ def _mu(text: str) -> float:
     try:
         value = float(text.strip())
     except ValueError:
-        raise SimroadError(f"mu: expected a number in (0, 1.5], got {text!r}.") from None
+        raise InvalidParameterError(f"mu: expected a number in (0, 1.5], got {text!r}.") from None
     return check_mu("mu", value)
 
 
@@ -137,7 +138,7 @@ def _wiper_period(text: str) -> float | str:
         try:
             value = float(value)
         except ValueError:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"wiper_period_s: expected seconds or one of {', '.join(WIPER_MODES)}, got {text!r}."
             ) from None
     WindscreenParams(wiper_period_s=value)
@@ -163,7 +164,7 @@ def _add_windscreen_options(g: argparse._ArgumentGroup) -> None:
 def env_options(args: argparse.Namespace) -> dict[str, Any]:
     """The RoadCam keywords of the camera, scenery, sensor, friction and windscreen flags (``--width`` ...)."""
     if args.no_windscreen and args.wiper_period is not None:
-        raise SimroadError("--wiper-period: there is no wiper with --no-windscreen; drop one of them.")
+        raise InvalidParameterError("--wiper-period: there is no wiper with --no-windscreen; drop one of them.")
     windscreen: bool | WindscreenParams = not args.no_windscreen
     if args.wiper_period is not None:
         windscreen = WindscreenParams(wiper_period_s=args.wiper_period)

@@ -15,6 +15,7 @@ from simroad.cli import commands
 from simroad.cli import types as T
 from simroad.cli.env_options import add_env_options, default_of, names
 from simroad.control.drivers import DRIVER_NAMES
+from simroad.core.names import NOISE_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.experiments._ray_backend import check_ray_address
@@ -29,7 +30,6 @@ from simroad.experiments.grid import AblationGrid
 from simroad.experiments.robustness import PhotoCamera
 from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
 from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters
-from simroad.noise import NOISE_NAMES
 
 __all__ = ["build_parser"]
 

@@ -4,7 +4,7 @@ Each factory returns a function for ``add_argument(type=...)`` that converts the
 or raises :class:`argparse.ArgumentTypeError`; argparse then prints
 ``simroad CMD: error: argument --FLAG: <what came, what is expected>`` and exits with
 status 2, before any episode, frame or training runs. Library checks
-(:mod:`simroad._validation`) are reused, so the command line and the Python API
+(:mod:`simroad.core.validation`) are reused, so the command line and the Python API
 refuse the same values with the same words.
 """
 
@@ -18,7 +18,8 @@ from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice, check_output_dir, check_output_file
+from simroad.core.validation import check_choice, check_output_dir, check_output_file
+from simroad.errors import InvalidParameterError, SimroadError
 
 __all__ = [
     "MAX_SEED",
@@ -136,9 +137,9 @@ def _split(value: str, example: str, what: str | None = None) -> list[str]:
     items = [v.strip() for v in value.split(",")]
     if not any(items):
         what = what or f"a comma-separated list such as {example}"
-        raise SimroadError(f"value: expected {what}, got {value!r}.")
+        raise InvalidParameterError(f"value: expected {what}, got {value!r}.")
     if "" in items:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"value: empty item in {value!r}: expected items separated by single commas, e.g. {example}."
         )
     _refuse_repeats(value, items)
@@ -148,7 +149,9 @@ def _split(value: str, example: str, what: str | None = None) -> list[str]:
 def _refuse_repeats(value: str, items: Sequence[Any]) -> None:
     dup = [v for k, v in enumerate(items) if v in items[:k]]
     if dup:
-        raise SimroadError(f"value: {dup[0]!r} is listed more than once in {value!r}: expected each item once.")
+        raise InvalidParameterError(
+            f"value: {dup[0]!r} is listed more than once in {value!r}: expected each item once."
+        )
 
 
 def float_list(low: float, high: float) -> Callable[[str], tuple[float, ...]]:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from simroad.control.autopilot import autopilot_action, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
 from simroad.control.drivers import DRIVER_NAMES, CallableDriver, MaskDriver, make_driver
@@ -22,11 +20,3 @@ __all__ = [
     "make_driver",
     "pure_pursuit_steering",
 ]
-
-
-def __getattr__(name: str) -> Any:
-    if name == "SCENARIO_CONTROL":  # deprecated: see simroad.control.drivers
-        from simroad.control import drivers
-
-        return drivers.__getattr__(name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

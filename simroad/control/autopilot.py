@@ -11,8 +11,9 @@ import math
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
+from simroad.core.validation import check_in_range
 from simroad.envs.routes import follow_lanes
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "MAX_LOOKAHEAD_LANES",
@@ -39,7 +40,7 @@ def pure_pursuit_steering(pose: tuple[float, float, float], target: np.ndarray, 
         dx, dy = target[0] - x, target[1] - y
         float(dx), float(dy), float(h)
     except (TypeError, ValueError, IndexError, KeyError):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"pose, target: expected pose=(x, y, heading) and target=(x, y) numbers, got {pose!r} and {target!r}."
         ) from None
     check_in_range("wheelbase_m", wheelbase_m, 0.0, 100.0, unit="m", low_inclusive=False)
@@ -89,9 +90,13 @@ def autopilot_action(road, vehicle, *, lookahead_s: float = 0.8, min_lookahead_m
         Shortest look-ahead in m.
     """
     if not hasattr(road, "network"):
-        raise SimroadError(f"road: expected a highway-env Road (env.highway_env.road), got {type(road).__name__}.")
+        raise InvalidParameterError(
+            f"road: expected a highway-env Road (env.highway_env.road), got {type(road).__name__}."
+        )
     if not all(hasattr(vehicle, a) for a in ("position", "heading", "speed", "LENGTH")):
-        raise SimroadError(f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}.")
+        raise InvalidParameterError(
+            f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}."
+        )
     check_in_range("lookahead_s", lookahead_s, 0.0, 10.0, unit="s")
     check_in_range("min_lookahead_m", min_lookahead_m, 0.0, 200.0, unit="m", low_inclusive=False)
     ld = max(min_lookahead_m, lookahead_s * float(vehicle.speed))

@@ -7,8 +7,9 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from simroad._validation import SimroadError, check_in_range, check_int_in_range
+from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.envs.scenarios import ScenarioSpec
+from simroad.errors import InvalidParameterError
 
 __all__ = ["ControllerConfig"]
 
@@ -168,7 +169,7 @@ class ControllerConfig:
         check_int_in_range("fit_rounds", self.fit_rounds, 1, 20)
         check_int_in_range("coast_frames", self.coast_frames, 0, 100)
         if self.min_lookahead_m > self.max_lookahead_m:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"min_lookahead_m: expected at most max_lookahead_m={self.max_lookahead_m:g} m, "
                 f"got {self.min_lookahead_m:g} m."
             )
@@ -178,7 +179,7 @@ class ControllerConfig:
         except (TypeError, ValueError):
             values = ()
         if isinstance(ahead, str) or len(values) < 2 or not all(0.0 < d <= 200.0 for d in values):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"lookaheads_m: expected two or more distances in (0, 200] m, got {ahead!r}. "
                 "Pass e.g. (5.0, 10.0, 20.0)."
             )
@@ -189,7 +190,7 @@ class ControllerConfig:
         except (TypeError, ValueError):
             widths = (math.nan,)
         if isinstance(steps, str) or not all(0.0 < d <= 10.0 for d in widths):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"edge_steps_m: expected a sequence of widths in (0, 10] m (empty for none), got {steps!r}. "
                 "Pass e.g. (2.3,) for kerb-side parking strips."
             )
@@ -200,7 +201,7 @@ class ControllerConfig:
         """The defaults with the scenario's lane width, cruise speed and parking strip
         width (``edge_steps_m``), then ``overrides``."""
         if not isinstance(scenario, ScenarioSpec):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"scenario: expected a ScenarioSpec (simroad.envs.get_scenario(name)), got {scenario!r}."
             )
         steps = (scenario.parking_width_m,) if scenario.parking_width_m > 0 else ()

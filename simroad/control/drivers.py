@@ -13,42 +13,23 @@ plugs in the same way through :class:`CallableDriver`.
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_keeping import MaskLaneKeeper
+from simroad.core.validation import check_choice
 from simroad.detector.registry import check_mask, load_detector
-from simroad.envs.scenarios import SCENARIOS, get_scenario
+from simroad.envs import RoadCamEnv
+from simroad.envs.scenarios import get_scenario
+from simroad.errors import InvalidParameterError
 
 __all__ = ["DRIVER_NAMES", "CallableDriver", "MaskDriver", "make_driver"]
 
 DRIVER_NAMES = ("detector", "oracle")
-
-
-def __getattr__(name: str) -> Any:
-    if name == "SCENARIO_CONTROL":
-        warnings.warn(
-            "SCENARIO_CONTROL is deprecated: read lane_width_m and cruise_speed_m_s from "
-            "simroad.envs.get_scenario(name), or use ControllerConfig.for_scenario(spec).",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return _scenario_control()
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def _scenario_control() -> Mapping[str, Mapping[str, float]]:
-    """The old per-scenario map priors, computed from the scenario specs."""
-    return {
-        name: {"lane_width_m": spec.lane_width_m, "target_speed_m_s": spec.cruise_speed_m_s}
-        for name, spec in SCENARIOS.items()
-    }
 
 
 class MaskDriver:
@@ -69,9 +50,9 @@ class MaskDriver:
 
     def __init__(self, camera: PinholeCamera, control: ControllerConfig, *, detector: Any = None) -> None:
         if not isinstance(camera, PinholeCamera):
-            raise SimroadError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
+            raise InvalidParameterError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
         if not isinstance(control, ControllerConfig):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"control: expected a ControllerConfig (ControllerConfig.for_scenario(spec)), "
                 f"got {type(control).__name__}."
             )
@@ -105,7 +86,9 @@ class CallableDriver:
 
     def __init__(self, fn: Callable[[np.ndarray], Any]) -> None:
         if not callable(fn):
-            raise SimroadError(f"driver: expected 'detector', 'oracle' or a callable obs -> action, got {fn!r}.")
+            raise InvalidParameterError(
+                f"driver: expected 'detector', 'oracle' or a callable obs -> action, got {fn!r}."
+            )
         self.fn = fn
         self.last_mask: np.ndarray | None = None
 
@@ -122,7 +105,7 @@ class CallableDriver:
         try:
             return np.asarray(out, dtype=np.float32)
         except (TypeError, ValueError):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"driver: returned {type(out).__name__} {out!r:.80}, expected an action: numbers such as "
                 "[steering, acceleration] in [-1, 1] (or (action, mask))."
             ) from None
@@ -148,15 +131,16 @@ def make_driver(
     if callable(driver) and not isinstance(driver, str):
         return CallableDriver(driver)
     check_choice("driver", driver, DRIVER_NAMES)
-    from simroad.envs import RoadCamEnv
 
     if not isinstance(getattr(env, "unwrapped", env), RoadCamEnv):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"env: expected a RoadCamEnv (e.g. gymnasium.make(...).unwrapped), got {type(env).__name__}."
         )
     env = env.unwrapped
     if not env.config.longitudinal:
-        raise SimroadError("env: mask drivers control speed too; create the environment with longitudinal=True.")
+        raise InvalidParameterError(
+            "env: mask drivers control speed too; create the environment with longitudinal=True."
+        )
     if control is None:
         control = ControllerConfig.for_scenario(get_scenario(env.config.scenario))
     if driver == "oracle":
@@ -164,7 +148,7 @@ def make_driver(
     if detector is None:
         detector = load_detector("paper", filters=tuple(filters))
     elif not callable(getattr(detector, "predict", None)):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector: expected an object with predict(uint8 (H, W, 3)) -> bool (H, W), got {type(detector).__name__}."
         )
     return MaskDriver(env.camera, control, detector=detector)

@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_mask
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
+from simroad.core.validation import check_mask
+from simroad.errors import InvalidParameterError
 
 __all__ = ["LaneEstimator", "PathEstimate"]
 
@@ -51,9 +52,9 @@ class PathEstimate:
 def _check_camera_and_config(camera: Any, config: Any) -> None:
     """Refuse a camera that is not a PinholeCamera and a config that is not a ControllerConfig."""
     if not isinstance(camera, PinholeCamera):
-        raise SimroadError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
+        raise InvalidParameterError(f"camera: expected a PinholeCamera (env.camera), got {type(camera).__name__}.")
     if config is not None and not isinstance(config, ControllerConfig):
-        raise SimroadError(f"config: expected a ControllerConfig or None, got {type(config).__name__}.")
+        raise InvalidParameterError(f"config: expected a ControllerConfig or None, got {type(config).__name__}.")
 
 
 class LaneEstimator:
@@ -78,7 +79,7 @@ class LaneEstimator:
         x_col = ground[:, camera.config.width // 2, 0]
         rows, xs = _rows_at(x_col, c.lookaheads_m, c.row_match_tolerance, below_row=camera.config.height)
         if len(rows) < 2:
-            raise SimroadError(
+            raise InvalidParameterError(
                 "camera: too few image rows see the look-ahead distances; lower the pitch or the look-aheads."
             )
         self._rows = np.asarray(rows)

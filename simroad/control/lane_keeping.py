@@ -15,14 +15,15 @@ import math
 
 import numpy as np
 
-from simroad._validation import check_finite_number
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_estimate import LaneEstimator, PathEstimate, _check_camera_and_config
-from simroad.envs.friction import G, check_mu
+from simroad.core.constants import GRAVITY_M_S2
+from simroad.core.validation import check_finite_number
+from simroad.envs.friction import check_mu
 
-__all__ = ["ACCEL_RANGE_M_S2", "ControllerConfig", "MaskLaneKeeper", "PathEstimate"]
+__all__ = ["ACCEL_RANGE_M_S2", "MaskLaneKeeper"]
 
 #: highway-env's ContinuousAction maps acceleration action 1.0 to 5 m/s^2.
 ACCEL_RANGE_M_S2 = 5.0
@@ -75,7 +76,7 @@ class MaskLaneKeeper:
         ndarray of float32, shape (2,)
         """
         check_finite_number("speed_m_s", speed_m_s)
-        grip = math.inf if mu is None else self.config.grip_use * check_mu("mu", mu) * G
+        grip = math.inf if mu is None else self.config.grip_use * check_mu("mu", mu) * GRAVITY_M_S2
         est = self.estimator.read_path(mask)
         self.last = est
         self.estimator.remember(est)

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from numpy.lib import format as npy_format
 
-from simroad._validation import SimroadError
+from simroad.errors import ModelFileError, SimroadError
 
 __all__ = ["MAX_ARRAY_BYTES", "model_error", "read_npz"]
 
@@ -30,9 +30,9 @@ _MAX_MEMBERS = 64
 _ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError, ValueError)
 
 
-def model_error(where: str, what: str) -> SimroadError:
+def model_error(where: str, what: str) -> ModelFileError:
     """The one error for a model file that is not whole: names the file, what is wrong and the fix."""
-    return SimroadError(
+    return ModelFileError(
         f"path: {where!r} is not a simroad road-detector model, or a damaged one: {what.rstrip('.')}. Copy the file again, or train a "
         "new one with `simroad train-detector` (or RoadDetector(...).fit(images, masks).save(path))."
     )
@@ -40,17 +40,17 @@ def model_error(where: str, what: str) -> SimroadError:
 
 def _source(path: object) -> tuple[Path, str]:
     if not isinstance(path, (str, os.PathLike)) or not str(path):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"path: expected a model file path (str or os.PathLike), got {type(path).__name__} {path!r}."
         )
     p = Path(path)
     if not p.exists():
-        raise SimroadError(
+        raise ModelFileError(
             f"path: no model file at {str(p)!r}. Train one with RoadDetector().fit(...).save(path) "
             "or `simroad train-detector`."
         )
     if not p.is_file():
-        raise SimroadError(f"path: {str(p)!r} is not a file (a directory?); give the model's .npz file.")
+        raise ModelFileError(f"path: {str(p)!r} is not a file (a directory?); give the model's .npz file.")
     return p, str(path)
 
 

@@ -24,8 +24,7 @@ from sklearn.exceptions import NotFittedError
 from sklearn.svm import SVC
 from sklearn.utils.validation import check_is_fitted
 
-from simroad._validation import (
-    SimroadError,
+from simroad.core.validation import (
     check_bool,
     check_choice,
     check_image,
@@ -47,16 +46,13 @@ from simroad.detector.pixels import (
     sample_pixels,
 )
 from simroad.detector.svm import KernelExpansion
-from simroad.filters.pipeline import FILTER_VARIANTS, FILTERS, apply_filters, check_filters, check_variant
+from simroad.errors import InvalidParameterError, ModelFileError
+from simroad.filters.pipeline import check_filters, check_variant
 
 __all__ = [
     "DEFAULT_MAX_SAMPLES",
     "DEFAULT_NONROAD_WEIGHT",
-    "FILTERS",
-    "FILTER_VARIANTS",
-    "MIN_IMAGE_SIZE",
     "RoadDetector",
-    "apply_filters",
     "default_model_path",
 ]
 
@@ -363,7 +359,7 @@ class RoadDetector(BaseEstimator):
             return self
         ground = getattr(camera, "ground_valid", None)
         if not isinstance(ground, np.ndarray) or ground.ndim != 2 or ground.dtype != np.bool_:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"camera: expected a calibrated camera with a bool (H, W) ground_valid mask (env.camera), "
                 f"got {type(camera).__name__}."
             )
@@ -419,7 +415,7 @@ class RoadDetector(BaseEstimator):
         """
         path = default_model_path()
         if not path.is_file():
-            raise SimroadError(
+            raise ModelFileError(
                 f"pretrained: the packaged model {str(path)!r} is missing. Reinstall simroad or "
                 "train one with `simroad train-detector`."
             )
@@ -429,12 +425,3 @@ class RoadDetector(BaseEstimator):
             filter_variant=check_variant(filter_variant),
         )  # fmt: skip
         return det
-
-
-def __getattr__(name: str) -> Any:
-    """Old import location of :func:`~simroad.detector.train_default` (moved to :mod:`simroad.detector.training`)."""
-    if name == "train_default":
-        from simroad.detector.training import train_default  # lazy: training imports this module
-
-        return train_default
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

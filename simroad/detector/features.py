@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from simroad._colour import hsi_intensity, hsi_saturation
-from simroad._validation import check_image
+from simroad.core.colour import hsi_intensity, hsi_saturation
+from simroad.core.validation import check_image
 
 __all__ = ["N_FEATURES", "hsi", "pixel_features"]
 

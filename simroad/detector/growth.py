@@ -16,7 +16,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_image, check_in_range, check_int_in_range, check_mask
+from simroad.core.validation import check_image, check_in_range, check_int_in_range, check_mask
+from simroad.errors import InvalidParameterError
 
 __all__ = ["GROW_TOLERANCE", "grow_road"]
 
@@ -105,11 +106,11 @@ def grow_road(
     image = check_image("image", image, dtype=("uint8",), channels=3)
     mask = np.ascontiguousarray(check_mask("mask", mask))
     if mask.shape != image.shape[:2]:
-        raise SimroadError(f"mask: expected the image's shape {image.shape[:2]}, got {mask.shape}.")
+        raise InvalidParameterError(f"mask: expected the image's shape {image.shape[:2]}, got {mask.shape}.")
     if ground is not None:
         ground = np.ascontiguousarray(check_mask("ground", ground))
         if ground.shape != mask.shape:
-            raise SimroadError(f"ground: expected the image's shape {mask.shape}, got {ground.shape}.")
+            raise InvalidParameterError(f"ground: expected the image's shape {mask.shape}, got {ground.shape}.")
     tolerance = check_in_range("tolerance", tolerance, 0.0, 64.0)
     scale = check_int_in_range("scale", scale, 1, 8)
     return _grow(np.ascontiguousarray(image), mask, ground, tolerance, scale)

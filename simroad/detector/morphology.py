@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 from numba import njit
 
-from simroad._validation import check_mask
+from simroad.core.validation import check_mask
 
 __all__ = ["extend_upward", "fill_holes", "keep_ego_component", "postprocess"]
 

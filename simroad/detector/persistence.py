@@ -44,11 +44,13 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_bool, check_choice, check_in_range, check_int_in_range
+from simroad.core.validation import check_bool, check_choice, check_in_range, check_int_in_range
 from simroad.detector._strict_npz import model_error, read_npz
 from simroad.detector.features import N_FEATURES
 from simroad.detector.lut import ColourTable
 from simroad.detector.svm import KernelExpansion
+from simroad.errors import InvalidParameterError, SimroadError
+from simroad.filters.pipeline import FILTER_VARIANTS, FILTERS
 
 __all__ = [
     "FORMAT",
@@ -108,11 +110,13 @@ def check_model_destination(path: object, *, name: str = "path", make_parents: b
         Create missing folders (as ``mkdir -p``) instead of refusing them.
     """
     if not isinstance(path, (str, os.PathLike)) or not str(path):
-        raise SimroadError(f"{name}: expected a file path (str or os.PathLike), got {type(path).__name__} {path!r}.")
+        raise InvalidParameterError(
+            f"{name}: expected a file path (str or os.PathLike), got {type(path).__name__} {path!r}."
+        )
     p = Path(path)
     try:
         if p.is_dir():
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}: {str(p)!r} is a directory; give a file path such as {str(p / 'road_detector.npz')!r}."
             )
         parent = p.parent
@@ -120,22 +124,24 @@ def check_model_destination(path: object, *, name: str = "path", make_parents: b
         while not existing.exists() and existing != existing.parent:
             existing = existing.parent
         if not existing.is_dir():
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}: cannot write {str(p)!r}: {str(existing)!r} is a file, not a folder. Choose another path."
             )
         if existing != parent:
             if not make_parents:
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"{name}: the folder {str(parent)!r} does not exist. Create it first (mkdir -p {parent}) "
                     "or choose an existing folder."
                 )
             parent.mkdir(parents=True, exist_ok=True)
         if not os.access(parent, os.W_OK | os.X_OK):
-            raise SimroadError(f"{name}: the folder {str(parent)!r} is not writable. Choose another path.")
+            raise InvalidParameterError(f"{name}: the folder {str(parent)!r} is not writable. Choose another path.")
         if p.exists() and (not p.is_file() or not os.access(p, os.W_OK)):
-            raise SimroadError(f"{name}: {str(p)!r} exists and is not a writable file. Choose another path.")
+            raise InvalidParameterError(f"{name}: {str(p)!r} exists and is not a writable file. Choose another path.")
     except OSError as exc:
-        raise SimroadError(f"{name}: cannot write {str(p)!r} ({exc.strerror or exc}). Choose another path.") from None
+        raise InvalidParameterError(
+            f"{name}: cannot write {str(p)!r} ({exc.strerror or exc}). Choose another path."
+        ) from None
     return p
 
 
@@ -144,16 +150,19 @@ def check_params(params: object) -> None:
 
     Raises :class:`~simroad.SimroadError` naming the parameter; values are not changed.
     """
-    from simroad.filters.pipeline import FILTER_VARIANTS, FILTERS
 
     if not isinstance(params, dict):
-        raise SimroadError(f"params: expected a mapping of parameter names to values, got {type(params).__name__}.")
+        raise InvalidParameterError(
+            f"params: expected a mapping of parameter names to values, got {type(params).__name__}."
+        )
     missing, unknown = sorted(PARAM_NAMES - set(params)), sorted(set(params) - PARAM_NAMES)
     if missing or unknown:
-        raise SimroadError(f"params: expected exactly {sorted(PARAM_NAMES)}; missing {missing}, unknown {unknown}.")
+        raise InvalidParameterError(
+            f"params: expected exactly {sorted(PARAM_NAMES)}; missing {missing}, unknown {unknown}."
+        )
     filters = params["filters"]
     if isinstance(filters, str) or not isinstance(filters, (list, tuple)):
-        raise SimroadError(f"filters: expected a list of filter names, got {filters!r}.")
+        raise InvalidParameterError(f"filters: expected a list of filter names, got {filters!r}.")
     for f in filters:
         check_choice("filters", f, FILTERS)
     check_choice("filter_variant", params["filter_variant"], FILTER_VARIANTS)
@@ -222,7 +231,7 @@ def write_model(
             np.savez_compressed(fh, **arrays)
         os.replace(tmp, dest)
     except OSError as exc:
-        raise SimroadError(f"path: could not write {str(dest)!r} ({exc.strerror or exc}).") from None
+        raise InvalidParameterError(f"path: could not write {str(dest)!r} ({exc.strerror or exc}).") from None
     finally:
         tmp.unlink(missing_ok=True)
 

@@ -6,7 +6,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_image, check_mask
+from simroad.core.validation import check_image, check_mask
+from simroad.errors import InvalidParameterError
 from simroad.filters._common import planes_to_uint8, to_planes
 from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
 
@@ -33,15 +34,17 @@ def check_training_set(
 ) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """Validate training images (sequence or (N, H, W, 3)) and their bool road masks, one per image."""
     if isinstance(images, np.ndarray) and images.ndim == 3:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"images: expected a sequence of (H, W, 3) images or an (N, H, W, 3) array, got "
             f"one array of shape {images.shape}. Wrap a single image in a list: [image]."
         )
     images, masks = _as_list("images", images), _as_list("masks", masks)
     if not images:
-        raise SimroadError("images: expected at least one training image, got none.")
+        raise InvalidParameterError("images: expected at least one training image, got none.")
     if len(images) != len(masks):
-        raise SimroadError(f"masks: expected one mask per image ({len(images)} images), got {len(masks)} masks.")
+        raise InvalidParameterError(
+            f"masks: expected one mask per image ({len(images)} images), got {len(masks)} masks."
+        )
     imgs, msks = [], []
     for k, (img, msk) in enumerate(zip(images, masks)):
         img = check_image(f"images[{k}]", img, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
@@ -54,7 +57,7 @@ def _as_list(name: str, items: object) -> list:
     if isinstance(items, np.ndarray):
         return list(items)
     if isinstance(items, (str, bytes)) or not isinstance(items, Sequence):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected a sequence (list or tuple) of arrays or one stacked array, got {type(items).__name__}."
         )
     return list(items)
@@ -87,7 +90,7 @@ def sample_pixels(
     x, y = np.concatenate(xs), np.concatenate(ys)
     if y.min() == y.max():
         kind = "road" if y[0] else "non-road"
-        raise SimroadError(
+        raise InvalidParameterError(
             f"masks: every training pixel is {kind}; the SVM needs both road and "
             "non-road pixels. Add images whose masks contain both."
         )

@@ -48,7 +48,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from simroad._validation import SimroadError
+from simroad import __version__
+from simroad.detector.detector import RoadDetector
+from simroad.errors import InvalidParameterError, SimroadError
 from simroad.filters import apply_filters, format_filters
 from simroad.filters.pipeline import check_filters, check_variant
 
@@ -83,8 +85,6 @@ class Detector(Protocol):
 
 def _paper(*, filters: Sequence[str] = (), filter_variant: str = "improved", morphology: bool = True) -> Any:
     """The shipped model of the paper's detector (:meth:`RoadDetector.pretrained`)."""
-    from simroad import __version__
-    from simroad.detector.detector import RoadDetector  # the registry is imported by the detector package
 
     det = RoadDetector.pretrained(filters, morphology=morphology, filter_variant=filter_variant)
     det.name, det.version = "paper", f"simroad {__version__}"
@@ -97,9 +97,9 @@ _REGISTRY: dict[str, Callable[..., Any]] = {"paper": _paper}
 def register(name: str, factory: Callable[..., Any]) -> None:
     """Register ``factory`` (a class or a callable taking keyword options) under ``name``."""
     if not isinstance(name, str) or not name.isidentifier():
-        raise SimroadError(f"name: expected a detector name like 'my_detector' (an identifier), got {name!r}.")
+        raise InvalidParameterError(f"name: expected a detector name like 'my_detector' (an identifier), got {name!r}.")
     if not callable(factory):
-        raise SimroadError(f"factory: expected a class or a callable returning a detector, got {factory!r}.")
+        raise InvalidParameterError(f"factory: expected a class or a callable returning a detector, got {factory!r}.")
     _REGISTRY[name] = factory
     clear_detector_cache()
 
@@ -128,7 +128,7 @@ def _how_to() -> str:
 def resolve_factory(spec: str) -> Callable[..., Any]:
     """The class or factory a detector spec names (see the module docstring)."""
     if not isinstance(spec, str) or not spec.strip():
-        raise SimroadError(f"detector: expected a detector spec, got {spec!r}; {_how_to()}.")
+        raise InvalidParameterError(f"detector: expected a detector spec, got {spec!r}; {_how_to()}.")
     spec = spec.strip()
     if spec in _REGISTRY:
         return _REGISTRY[spec]
@@ -138,57 +138,57 @@ def resolve_factory(spec: str) -> Callable[..., Any]:
             try:
                 return eps[spec].load()
             except Exception as exc:  # a broken plug-in is reported by name
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"detector: the entry point {spec!r} ({eps[spec].value}) failed to load: "
                     f"{type(exc).__name__}: {exc}."
                 ) from None
-        raise SimroadError(f"detector: unknown detector {spec!r}; {_how_to()}.")
+        raise InvalidParameterError(f"detector: unknown detector {spec!r}; {_how_to()}.")
     where, _, attr = spec.rpartition(":")
     if not attr.isidentifier():
-        raise SimroadError(f"detector: {spec!r} names no attribute after ':'; {_how_to()}.")
+        raise InvalidParameterError(f"detector: {spec!r} names no attribute after ':'; {_how_to()}.")
     if where.endswith(".py") or "/" in where or "\\" in where:
         module = _module_from_file(spec, Path(where))
     else:
         if not all(part.isidentifier() for part in where.split(".")):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector: {spec!r} names no importable module before ':' (got {where!r}); {_how_to()}."
             )
         try:
             module = importlib.import_module(where)
         except ImportError as exc:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector: cannot import {where!r} for {spec!r} ({exc}); install the package or put it on PYTHONPATH."
             ) from None
         except Exception as exc:  # the module itself failed while importing: report it by name
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector: importing {where!r} for {spec!r} failed: {type(exc).__name__}: {exc}."
             ) from exc
     try:
         factory = getattr(module, attr)
     except AttributeError:
-        raise SimroadError(f"detector: {where!r} has no attribute {attr!r} (spec {spec!r}).") from None
+        raise InvalidParameterError(f"detector: {where!r} has no attribute {attr!r} (spec {spec!r}).") from None
     if not callable(factory):
-        raise SimroadError(f"detector: {spec!r} is a {type(factory).__name__}, not a class or factory.")
+        raise InvalidParameterError(f"detector: {spec!r} is a {type(factory).__name__}, not a class or factory.")
     return factory
 
 
 def _module_from_file(spec: str, path: Path) -> Any:
     path = path.expanduser().resolve()
     if not path.is_file():
-        raise SimroadError(f"detector: no file {str(path)!r} (spec {spec!r}).")
+        raise InvalidParameterError(f"detector: no file {str(path)!r} (spec {spec!r}).")
     name = f"simroad_user_detector_{abs(hash(str(path)))}"
     if name in sys.modules:
         return sys.modules[name]
     loader_spec = importlib.util.spec_from_file_location(name, path)
     if loader_spec is None or loader_spec.loader is None:
-        raise SimroadError(f"detector: {str(path)!r} is not a Python file (spec {spec!r}).")
+        raise InvalidParameterError(f"detector: {str(path)!r} is not a Python file (spec {spec!r}).")
     module = importlib.util.module_from_spec(loader_spec)
     sys.modules[name] = module
     try:
         loader_spec.loader.exec_module(module)
     except Exception as exc:  # the user's file: report it by name
         del sys.modules[name]
-        raise SimroadError(f"detector: running {str(path)!r} failed: {type(exc).__name__}: {exc}.") from None
+        raise InvalidParameterError(f"detector: running {str(path)!r} failed: {type(exc).__name__}: {exc}.") from None
     return module
 
 
@@ -199,14 +199,14 @@ def check_detector(spec: str, options: Any = None) -> tuple[Callable[..., Any], 
     factory = resolve_factory(spec)
     opts = parse_detector_options(options)
     if factory is _paper and ({"filters", "filter_variant"} & set(opts)):
-        raise SimroadError(
+        raise InvalidParameterError(
             "detector_options: the paper detector's filters are the spec's filters (filters=, --filters), "
             f"not an option; got {sorted(opts)}."
         )
     try:  # bind, not bind_partial: the factory is called with these options alone
         inspect.signature(factory).bind(**opts)
     except TypeError as exc:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector_options: {spec!r} did not accept {sorted(opts)} ({exc}); its signature: {_signature(factory)}."
         ) from None
     except ValueError:  # no signature to check (a builtin): checked when it is built
@@ -221,21 +221,21 @@ def parse_detector_options(items: Iterable[str] | Mapping[str, Any] | None) -> d
     if items is None:
         return {}
     if isinstance(items, str) or not isinstance(items, Mapping | list | tuple):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector_options: expected a mapping of keyword options such as {{'threshold': 0.5}} "
             f"(or key=value strings), got {type(items).__name__} {items!r}."
         )
     if isinstance(items, Mapping):
         for key in items:
             if not isinstance(key, str) or not key.isidentifier():
-                raise SimroadError(f"detector options: expected keyword names, got {key!r}.")
+                raise InvalidParameterError(f"detector options: expected keyword names, got {key!r}.")
         return dict(items)
     out: dict[str, Any] = {}
     for item in items:
         key, sep, text = str(item).partition("=")
         key = key.strip()
         if not sep or not key.isidentifier():
-            raise SimroadError(f"--detector-option: expected key=value (e.g. threshold=0.5), got {item!r}.")
+            raise InvalidParameterError(f"--detector-option: expected key=value (e.g. threshold=0.5), got {item!r}.")
         try:
             value: Any = ast.literal_eval(text.strip())
         except (ValueError, SyntaxError):
@@ -278,11 +278,11 @@ def _load(spec: str, frozen: tuple, filters: tuple[str, ...], variant: str) -> A
     except SimroadError:
         raise
     except Exception as exc:  # the user's class or factory: report it by name (the cause stays chained)
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector: building {spec!r} with options {opts!r} failed: {type(exc).__name__}: {exc}."
         ) from exc
     if not callable(getattr(detector, "predict", None)):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector: {spec!r} built a {type(detector).__name__} without a predict(image) method; "
             "a detector needs predict(uint8 (H, W, 3)) -> bool (H, W)."
         )
@@ -316,7 +316,9 @@ class FilteredDetector:
 
     def __init__(self, detector: Any, filters: Sequence[str], *, filter_variant: str = "improved") -> None:
         if not callable(getattr(detector, "predict", None)):
-            raise SimroadError(f"detector: expected an object with predict(image), got {type(detector).__name__}.")
+            raise InvalidParameterError(
+                f"detector: expected an object with predict(image), got {type(detector).__name__}."
+            )
         self.detector = detector
         self.filters = check_filters(filters)
         self.filter_variant = check_variant(filter_variant)
@@ -371,13 +373,13 @@ def check_mask(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:
     """A detector's output as a bool (H, W) mask, or a clear error naming the detector."""
     arr = np.asarray(mask)
     if arr.shape != tuple(shape):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector {describe(detector)['name']!r}: predict() returned shape {arr.shape}, expected the "
             f"frame's {tuple(shape)} (a bool road mask)."
         )
     if arr.dtype != np.bool_:
         if arr.dtype.kind not in "biu":
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector {describe(detector)['name']!r}: predict() returned {arr.dtype}, expected a bool mask "
                 "(threshold scores yourself, e.g. scores > 0.5)."
             )

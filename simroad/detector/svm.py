@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.metrics.pairwise import rbf_kernel
 
-from simroad._validation import SimroadError, check_array, check_finite_number
+from simroad.core.validation import check_array, check_finite_number
+from simroad.errors import InvalidParameterError
 
 __all__ = ["KernelExpansion"]
 
@@ -47,13 +48,13 @@ class KernelExpansion:
         sv = check_array("support_vectors", self.support_vectors, dtype=_FLOATS, ndim=2)
         coef = check_array("dual_coef", self.dual_coef, dtype=_FLOATS, ndim=1)
         if len(coef) != len(sv):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"dual_coef: expected one coefficient per support vector ({len(sv)}), got shape {coef.shape}."
             )
         intercept = check_finite_number("intercept", self.intercept)
         gamma = check_finite_number("gamma", self.gamma)
         if gamma <= 0.0:
-            raise SimroadError(f"gamma: expected an RBF kernel width > 0, got {gamma:g}.")
+            raise InvalidParameterError(f"gamma: expected an RBF kernel width > 0, got {gamma:g}.")
         object.__setattr__(self, "support_vectors", np.asarray(sv, dtype=np.float64))
         object.__setattr__(self, "dual_coef", np.asarray(coef, dtype=np.float64))
         object.__setattr__(self, "intercept", intercept)
@@ -75,9 +76,11 @@ class KernelExpansion:
         x = np.asarray(x, dtype=np.float64)
         n_features = self.support_vectors.shape[1]
         if x.ndim != 2 or x.shape[1] != n_features:
-            raise SimroadError(f"x: expected rows of {n_features} features, shape (N, {n_features}); got {x.shape}.")
+            raise InvalidParameterError(
+                f"x: expected rows of {n_features} features, shape (N, {n_features}); got {x.shape}."
+            )
         if not np.isfinite(x).all():
-            raise SimroadError("x: expected finite feature values, got NaN or infinite ones.")
+            raise InvalidParameterError("x: expected finite feature values, got NaN or infinite ones.")
         out = np.empty(len(x))
         for s in range(0, len(x), _CHUNK):
             k = rbf_kernel(x[s : s + _CHUNK], self.support_vectors, gamma=self.gamma)

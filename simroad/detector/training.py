@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from simroad._validation import normalize_rng
+from simroad.core.validation import normalize_rng
 from simroad.detector.detector import DEFAULT_MAX_SAMPLES, DEFAULT_NONROAD_WEIGHT, RoadDetector
 
 __all__ = ["train_default"]

@@ -8,15 +8,16 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from simroad._validation import SimroadError, check_bool, check_choice, check_in_range
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.sensor import SensorParams
+from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
+from simroad.errors import InvalidParameterError
 from simroad.noise import MODELS, WindscreenParams, parse_noise
 
-__all__ = ["SCENARIO_NAMES", "RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
+__all__ = ["RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
 
 _CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
 
@@ -103,7 +104,7 @@ class RoadCamConfig:
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
         if not isinstance(self.camera, CameraConfig):
-            raise SimroadError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
+            raise InvalidParameterError(f"camera: expected a CameraConfig, got {type(self.camera).__name__}.")
         object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
         period = SCENARIOS[self.scenario].policy_period_s  # at least one policy step
         object.__setattr__(self, "duration_s", check_in_range("duration_s", self.duration_s, period, 3600.0, unit="s"))
@@ -113,7 +114,7 @@ class RoadCamConfig:
         if self.roadside is not None:
             check_choice("roadside", self.roadside, ROADSIDE_KINDS)
         if not isinstance(self.noise, str):
-            raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
+            raise InvalidParameterError(f"noise: expected a string such as 'rain' or 'rain+glare', got {self.noise!r}.")
         object.__setattr__(self, "noise", "+".join(parse_noise(self.noise)) or "clear")
         object.__setattr__(self, "scenery", check_in_range("scenery", self.scenery, 0.0, 5.0))
         check_bool("longitudinal", self.longitudinal)
@@ -149,10 +150,14 @@ class RoadCamConfig:
             else:
                 close = difflib.get_close_matches(key, valid, n=1)
                 hint = f" Did you mean {close[0]!r}?" if close else ""
-                raise SimroadError(f"unknown RoadCam option {key!r}; valid options are {', '.join(valid)}.{hint}")
+                raise InvalidParameterError(
+                    f"unknown RoadCam option {key!r}; valid options are {', '.join(valid)}.{hint}"
+                )
         if cam_kw:
             if "camera" in own_kw:
-                raise SimroadError("camera: pass either camera=CameraConfig(...) or camera keywords, not both.")
+                raise InvalidParameterError(
+                    "camera: pass either camera=CameraConfig(...) or camera keywords, not both."
+                )
             own_kw["camera"] = CameraConfig(**cam_kw)
         return cls(**own_kw)
 
@@ -164,14 +169,14 @@ def _check_friction(friction: Any, road_surface: Any, mu: Any) -> None:
     check_choice("road_surface", road_surface, ROAD_SURFACES)
     if not friction and (road_surface != "auto" or mu is not None):
         name = "mu" if mu is not None else "road_surface"
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: set to {mu if mu is not None else road_surface!r} with friction=False, where it has no effect; "
             "drop it or turn friction on."
         )
     if mu is not None:
         check_mu("mu", mu)
         if road_surface != "auto":
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"mu: a fixed mu={mu!r} and road_surface={road_surface!r} both set the friction; give one of them."
             )
 
@@ -181,7 +186,7 @@ def _check_noise_params(params: Any, noise: str) -> None:
     if params is None:
         return
     if not isinstance(params, Mapping):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"noise_params: expected a dict noise name -> Params such as {{'rain': RainParams(...)}}, "
             f"got {type(params).__name__}."
         )
@@ -189,7 +194,7 @@ def _check_noise_params(params: Any, noise: str) -> None:
     for key, value in params.items():
         if key not in active:
             where = f"the active noises are {', '.join(map(repr, active))}" if active else "the weather is 'clear'"
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"noise_params: parameters for {key!r}, which is not active (noise={noise!r}; {where}). "
                 f"Add {key!r} to noise (e.g. noise='{noise}+{key}') or drop its parameters."
                 if active
@@ -197,4 +202,6 @@ def _check_noise_params(params: Any, noise: str) -> None:
             )
         want = MODELS[key].params_type
         if not isinstance(value, want):
-            raise SimroadError(f"noise_params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")
+            raise InvalidParameterError(
+                f"noise_params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}."
+            )

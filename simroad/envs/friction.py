@@ -42,7 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range
+from simroad.core.constants import GRAVITY_M_S2
+from simroad.core.validation import check_choice, check_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "DRAINAGE_PATH_M",
@@ -50,7 +52,6 @@ __all__ = [
     "ROAD_SURFACES",
     "SURFACES",
     "WET_MU_CURVE",
-    "G",
     "RoadGrip",
     "Surface",
     "check_mu",
@@ -62,8 +63,6 @@ __all__ = [
     "wet_mu",
 ]
 
-#: Standard gravity, m/s^2.
-G = 9.81
 #: Accepted range of a friction coefficient (``mu``): above 0, at most a racing slick's.
 MU_RANGE = (0.0, 1.5)
 #: Drainage path length of the water film model, m (one lane of a crowned road).
@@ -140,7 +139,7 @@ def wet_mu(depth_mm: float) -> float:
     return float(np.interp(d, xs, ys))
 
 
-def friction_limit(a_long: float, a_lat: float, mu: float, g: float = G) -> tuple[float, float, bool]:
+def friction_limit(a_long: float, a_lat: float, mu: float, g: float = GRAVITY_M_S2) -> tuple[float, float, bool]:
     """The acceleration the tyres deliver for a demand ``(a_long, a_lat)``, m/s^2.
 
     Inside the friction circle ``sqrt(a_long² + a_lat²) <= μ·g`` the demand is met;
@@ -162,12 +161,12 @@ def friction_limit(a_long: float, a_lat: float, mu: float, g: float = G) -> tupl
     return a_long * k, a_lat * k, True
 
 
-def stopping_distance_m(speed_m_s: float, mu: float, g: float = G) -> float:
+def stopping_distance_m(speed_m_s: float, mu: float, g: float = GRAVITY_M_S2) -> float:
     """Distance to stop from ``speed_m_s`` braking at the friction limit: ``v²/(2·μ·g)``, m."""
     return speed_m_s * speed_m_s / (2.0 * mu * g)
 
 
-def cornering_speed_m_s(mu: float, radius_m: float, g: float = G) -> float:
+def cornering_speed_m_s(mu: float, radius_m: float, g: float = GRAVITY_M_S2) -> float:
     """Highest speed on a curve of ``radius_m`` at the friction limit: ``sqrt(μ·g·R)``, m/s."""
     return math.sqrt(mu * g * radius_m)
 
@@ -249,7 +248,7 @@ def road_grip(weather: Any = None, *, road_surface: str = "auto", mu: float | No
     road_surface = check_choice("road_surface", road_surface, ROAD_SURFACES)
     if mu is not None:
         if road_surface != "auto":
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"mu: a fixed mu={mu!r} and road_surface={road_surface!r} both set the friction; give one of them."
             )
         return RoadGrip(check_mu("mu", mu))

@@ -10,15 +10,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
 from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
 from simroad.camera.scenery import Scenery
 from simroad.camera.vehicles import draw_paint, paint_rgb
+from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import RoadGrip, road_grip
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
 from simroad.envs.tyres import attach_grip
+from simroad.errors import InvalidParameterError, ResetNeededError
 from simroad.noise import NoiseContext, Weather, make_weather
 
 __all__ = ["RoadCamEnv"]
@@ -29,11 +30,11 @@ def _action_array(action: Any, shape: tuple[int, ...] | None) -> np.ndarray:
     n = shape[0] if shape else 1
     hint = f"expected {n} number(s) in [-1, 1] (an array of shape {shape})"
     if isinstance(action, (str, bytes)) or action is None:
-        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.")
+        raise InvalidParameterError(f"action: {hint}, got {type(action).__name__} {action!r}.")
     try:
         a = np.asarray(action, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise SimroadError(f"action: {hint}, got {type(action).__name__} {action!r}.") from None
+        raise InvalidParameterError(f"action: {hint}, got {type(action).__name__} {action!r}.") from None
     return a
 
 
@@ -101,13 +102,13 @@ class RoadCamEnv(gym.Env):
         if render_mode is not None:
             check_choice("render_mode", render_mode, self.metadata["render_modes"])
         if config is not None and kwargs:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"config: got config=RoadCamConfig(...) together with the keywords {', '.join(sorted(kwargs))}, "
                 "which it would silently override. Pass either config= or keywords, e.g. "
                 "config=dataclasses.replace(config, ...)."
             )
         if config is not None and not isinstance(config, RoadCamConfig):
-            raise SimroadError(f"config: expected a RoadCamConfig, got {type(config).__name__}.")
+            raise InvalidParameterError(f"config: expected a RoadCamConfig, got {type(config).__name__}.")
         self.render_mode = render_mode
         self.config = config if config is not None else RoadCamConfig.from_kwargs(**kwargs)
         c = self.config
@@ -146,7 +147,7 @@ class RoadCamEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         if options:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"options: RoadCamEnv.reset takes no options, got {sorted(map(str, options))}. "
                 "Configure the environment with its constructor keywords instead."
             )
@@ -209,11 +210,11 @@ class RoadCamEnv(gym.Env):
     def step(self, action):
         a = _action_array(action, self.action_space.shape)
         if a.shape != self.action_space.shape:
-            raise SimroadError(f"action: expected shape {self.action_space.shape}, got {np.shape(action)}.")
+            raise InvalidParameterError(f"action: expected shape {self.action_space.shape}, got {np.shape(action)}.")
         if not np.all(np.isfinite(a)):
-            raise SimroadError(f"action: expected finite values in [-1, 1], got {a.tolist()}.")
+            raise InvalidParameterError(f"action: expected finite values in [-1, 1], got {a.tolist()}.")
         if self.world is None:
-            raise SimroadError("step() called before reset(); call env.reset(seed=...) first.")
+            raise ResetNeededError("step() called before reset(); call env.reset(seed=...) first.")
         a = np.clip(a, -1.0, 1.0)
         self._prev_heading = float(self.vehicle.heading)
         hw_action = a[::-1] if self.config.longitudinal else a  # highway-env: [acceleration, steering]
@@ -236,9 +237,9 @@ class RoadCamEnv(gym.Env):
     def render_bev(self, *, size: tuple[int, int] = (240, 320), metres_per_px: float = 0.25) -> np.ndarray:
         """Bird's-eye view of the world around the ego (heading up), uint8 (H, W, 3)."""
         if self.world is None:
-            raise SimroadError("render_bev() called before reset().")
+            raise ResetNeededError("render_bev() called before reset().")
         if isinstance(size, (str, bytes)) or not isinstance(size, (tuple, list)) or len(size) != 2:
-            raise SimroadError(f"size: expected (height, width) in pixels, got {size!r}.")
+            raise InvalidParameterError(f"size: expected (height, width) in pixels, got {size!r}.")
         size = (check_int_in_range("size[0]", size[0], 8, 4096), check_int_in_range("size[1]", size[1], 8, 4096))
         metres_per_px = check_in_range("metres_per_px", metres_per_px, 0.0, 100.0, low_inclusive=False)
         ego = self._box(self.vehicle, rgb=(255, 255, 255))
@@ -261,7 +262,7 @@ class RoadCamEnv(gym.Env):
             known = self._vehicle_rgb.get(id(v))
             if known is None:
                 if self._colour_rng is None:
-                    raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
+                    raise ResetNeededError("reset() must be called before the first step; call env.reset(seed=...).")
                 _, albedo = draw_paint(self._colour_rng)  # one colour per vehicle and episode
                 known = (paint_rgb(albedo), (float(albedo[0]), float(albedo[1]), float(albedo[2])))
                 self._vehicle_rgb[id(v)] = known
@@ -311,7 +312,7 @@ class RoadCamEnv(gym.Env):
 
     def _observe(self, *, crashed: bool):
         if self.renderer is None:
-            raise SimroadError("reset() must be called before the first step; call env.reset(seed=...).")
+            raise ResetNeededError("reset() must be called before the first step; call env.reset(seed=...).")
         speed = float(self.vehicle.speed)
         motion = self.sensor.travel_m(speed) if self.sensor is not None else 0.0
         frame = self.renderer.render(self._pose(), self._others(), motion_m=motion)

@@ -21,6 +21,8 @@ dict happens only in the factories below.
 
 from __future__ import annotations
 
+import importlib
+import re
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -30,19 +32,22 @@ from highway_env.envs.common.abstract import AbstractEnv
 from highway_env.envs.highway_env import HighwayEnv
 from highway_env.envs.racetrack_env import RacetrackEnv
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.core.names import PROFILES
+from simroad.core.validation import check_choice, check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "OPEN_ROUTE_M",
     "POLICY_HZ",
-    "PROFILES",
     "SCENARIOS",
     "SCENARIO_NAMES",
     "SIMULATION_HZ",
     "ScenarioSpec",
     "generated_road_config",
     "get_scenario",
+    "make_highway",
     "make_highway_env",
+    "make_racetrack",
 ]
 
 #: Camera frames and actions per simulated second, in Hz (every scenario).
@@ -52,8 +57,6 @@ SIMULATION_HZ = 15
 #: Route length scored on open roads, in m.
 OPEN_ROUTE_M = 1000.0
 
-#: Ground profiles beside the road: verges (``rural``) or kerb and sidewalk (``urban``).
-PROFILES = ("rural", "urban")
 
 #: factory(spec, longitudinal, traffic, duration_s) -> highway-env environment.
 EnvFactory = Callable[["ScenarioSpec", bool, bool, float], AbstractEnv]
@@ -69,9 +72,12 @@ class ScenarioSpec:
         Registry key, e.g. ``"racetrack"``.
     summary : str
         One line for help texts.
-    factory : callable
-        ``factory(spec, longitudinal, traffic, duration_s)`` creating the highway-env
-        environment; use :meth:`make_env`.
+    factory : str
+        Entry point ``"module:function"`` of ``function(spec, longitudinal, traffic,
+        duration_s)``, which creates the highway-env environment; use :meth:`make_env`.
+        A string, as in gymnasium's registry: the module is imported only when an
+        environment is made, so the generated roads may read their defaults from
+        :data:`SCENARIOS`.
     lane_width_m : float
         Nominal lane width in m (the road's: highway-env's own on the racetrack and
         the highway, the generated road's on ``winding``).
@@ -117,9 +123,11 @@ class ScenarioSpec:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
-            raise SimroadError(f"name: expected a non-empty scenario name, got {self.name!r}.")
-        if not callable(self.factory):
-            raise SimroadError(f"factory: expected a callable creating a highway-env env, got {self.factory!r}.")
+            raise InvalidParameterError(f"name: expected a non-empty scenario name, got {self.name!r}.")
+        if not isinstance(self.factory, str) or not re.fullmatch(r"[\w.]+:\w+", self.factory):
+            raise InvalidParameterError(
+                f"factory: expected an entry point 'module:function' creating a highway-env env, got {self.factory!r}."
+            )
         check_in_range("lane_width_m", self.lane_width_m, 1.0, 10.0, unit="m")
         check_in_range("cruise_speed_m_s", self.cruise_speed_m_s, 0.0, 60.0, unit="m/s")
         check_int_in_range("lanes_count", self.lanes_count, 1, 20)
@@ -127,7 +135,7 @@ class ScenarioSpec:
         check_int_in_range("policy_hz", self.policy_hz, 1, 100)
         check_int_in_range("simulation_hz", self.simulation_hz, 1, 1000)
         if self.simulation_hz % self.policy_hz:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"simulation_hz: expected a multiple of policy_hz={self.policy_hz} Hz, got {self.simulation_hz} Hz."
             )
         check_in_range("parking_width_m", self.parking_width_m, 0.0, 10.0, unit="m")
@@ -143,7 +151,9 @@ class ScenarioSpec:
 
     def make_env(self, *, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
         """Create the highway-env environment of this scenario."""
-        return self.factory(self, longitudinal, traffic, duration_s)
+        module, function = self.factory.split(":")
+        factory: EnvFactory = getattr(importlib.import_module(module), function)
+        return factory(self, longitudinal, traffic, duration_s)
 
     def highway_env_config(self, *, longitudinal: bool, traffic: bool, duration_s: float) -> dict[str, Any]:
         """The config keys every scenario's highway-env environment shares."""
@@ -157,12 +167,12 @@ class ScenarioSpec:
         }
 
 
-def _racetrack(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+def make_racetrack(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
     config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
     return RacetrackEnv(config={"observation": {"type": "Kinematics"}, "terminate_off_road": False, **config})
 
 
-def _highway(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
+def make_highway(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
     config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
     return HighwayEnv(
         config={
@@ -174,26 +184,12 @@ def _highway(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: 
     )
 
 
-def _winding(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
-    from simroad.envs.winding import WindingRoadEnv  # winding reads its defaults from SCENARIOS: a real cycle
-
-    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
-    return WindingRoadEnv(config={"lane_width": spec.lane_width_m, **config})
-
-
-def _town(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> AbstractEnv:
-    from simroad.envs.town import TownStreetEnv  # town reads its defaults from SCENARIOS: a real cycle
-
-    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
-    return TownStreetEnv(config={"lane_width": spec.lane_width_m, "road_length": spec.route_m + 40.0, **config})
-
-
 #: Scenario name -> its spec (insertion order is the order of help texts and figures).
 SCENARIOS: dict[str, ScenarioSpec] = {
     "racetrack": ScenarioSpec(
         name="racetrack",
         summary="highway-env's curvy two-lane circuit, one other car",
-        factory=_racetrack,
+        factory="simroad.envs.scenarios:make_racetrack",
         lane_width_m=5.0,
         cruise_speed_m_s=10.0,
         lanes_count=2,
@@ -203,7 +199,7 @@ SCENARIOS: dict[str, ScenarioSpec] = {
     "highway": ScenarioSpec(
         name="highway",
         summary="a straight three-lane motorway with IDM traffic",
-        factory=_highway,
+        factory="simroad.envs.scenarios:make_highway",
         lane_width_m=4.0,
         cruise_speed_m_s=25.0,
         lanes_count=3,
@@ -212,7 +208,7 @@ SCENARIOS: dict[str, ScenarioSpec] = {
     "winding": ScenarioSpec(
         name="winding",
         summary="a two-lane country road generated from the seed",
-        factory=_winding,
+        factory="simroad.envs.winding:make_winding",
         lane_width_m=3.5,
         cruise_speed_m_s=15.0,
         lanes_count=1,
@@ -221,7 +217,7 @@ SCENARIOS: dict[str, ScenarioSpec] = {
     "town": ScenarioSpec(
         name="town",
         summary="a town street with junctions, parked cars and crossings, generated from the seed",
-        factory=_town,
+        factory="simroad.envs.town:make_town",
         lane_width_m=3.25,
         cruise_speed_m_s=12.0,
         lanes_count=1,

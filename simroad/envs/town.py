@@ -25,16 +25,16 @@ from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
-from simroad.envs.scenarios import generated_road_config, get_scenario
+from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
 
 __all__ = [
     "Block",
-    "ParkedVehicle",
     "TownLayout",
     "TownNetwork",
     "TownStreetEnv",
     "build_town_network",
     "generate_town",
+    "make_town",
 ]
 
 _S, _C, _N = LineType.STRIPED, LineType.CONTINUOUS, LineType.NONE
@@ -315,3 +315,9 @@ class TownStreetEnv(GeneratedRoadEnv):
             room = max(0.0, lane.width_at(0.0) / 2 - ParkedVehicle.WIDTH / 2 - 0.05)
             lateral = float(rng.uniform(0.0, room))  # towards the kerb (right of the strip's travel)
             self.road.vehicles.append(ParkedVehicle(self.road, index, lane, s + jitter, lateral))
+
+
+def make_town(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> TownStreetEnv:
+    """The town scenario's environment (the entry point of ``SCENARIOS["town"]``)."""
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+    return TownStreetEnv(config={"lane_width": spec.lane_width_m, "road_length": spec.route_m + 40.0, **config})

@@ -26,10 +26,11 @@ from highway_env.road.lane import CircularLane, StraightLane
 from highway_env.vehicle.behavior import IDMVehicle
 from highway_env.vehicle.kinematics import Vehicle
 
-from simroad._validation import SimroadError
+from simroad.core.constants import GRAVITY_M_S2
 from simroad.envs._town_parts import ParkedVehicle
-from simroad.envs.friction import G, RoadGrip, friction_limit
+from simroad.envs.friction import RoadGrip, friction_limit
 from simroad.envs.routes import follow_lanes
+from simroad.errors import InvalidParameterError
 
 __all__ = ["GripIDMVehicle", "GripVehicle", "LanesAhead", "attach_grip", "grip_class"]
 
@@ -106,7 +107,7 @@ class GripIDMVehicle(GripVehicle, IDMVehicle):
             super().act(action)
             return
         mu = self.mu if math.isfinite(self.mu) else grip.mu_at(*map(float, self.position))
-        brake, corner = self.BRAKE_USE * mu * G, self.CORNER_USE * mu * G
+        brake, corner = self.BRAKE_USE * mu * GRAVITY_M_S2, self.CORNER_USE * mu * GRAVITY_M_S2
         # IDM's comfortable deceleration b and acceleration a, per car (its desired gap grows as sqrt(a·b) falls)
         setattr(self, "COMFORT_ACC_MIN", -min(-_IDM_ACC_MIN, brake))  # noqa: B010
         setattr(self, "COMFORT_ACC_MAX", min(_IDM_ACC_MAX, brake))  # noqa: B010
@@ -128,7 +129,7 @@ _IDM_ACC_MIN, _IDM_ACC_MAX = float(IDMVehicle.COMFORT_ACC_MIN), float(IDMVehicle
 def grip_class(cls: type) -> type:
     """The friction-circle subclass of highway-env vehicle class ``cls`` (cached)."""
     if not (isinstance(cls, type) and issubclass(cls, Vehicle)):
-        raise SimroadError(f"cls: expected a highway-env Vehicle class, got {cls!r}.")
+        raise InvalidParameterError(f"cls: expected a highway-env Vehicle class, got {cls!r}.")
     if issubclass(cls, GripVehicle):
         return cls
     if cls not in _MADE:
@@ -194,7 +195,9 @@ def attach_grip(road: Any, grip: RoadGrip) -> None:
     :func:`grip_class` (same state, same object) with the road's friction. Parked
     cars never move and are left as they are."""
     if not isinstance(grip, RoadGrip):
-        raise SimroadError(f"grip: expected a RoadGrip (simroad.envs.friction.road_grip), got {type(grip).__name__}.")
+        raise InvalidParameterError(
+            f"grip: expected a RoadGrip (simroad.envs.friction.road_grip), got {type(grip).__name__}."
+        )
     ahead = LanesAhead(road.network)
     for v in road.vehicles:
         if isinstance(v, ParkedVehicle) or not isinstance(v, Vehicle):

@@ -18,9 +18,9 @@ from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.envs._generated import GeneratedRoadEnv
-from simroad.envs.scenarios import generated_road_config, get_scenario
+from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
 
-__all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments"]
+__all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments", "make_winding"]
 
 _S, _C, _N = LineType.STRIPED, LineType.CONTINUOUS, LineType.NONE
 
@@ -194,3 +194,9 @@ class WindingRoadEnv(GeneratedRoadEnv):
             v = IDMVehicle(self.road, lane.position(s, 0.0), lane.heading_at(s), speed=float(rng.uniform(10, 16)))
             v.plan_route_to("o0")
             self.road.vehicles.append(v)
+
+
+def make_winding(spec: ScenarioSpec, longitudinal: bool, traffic: bool, duration_s: float) -> WindingRoadEnv:
+    """The winding scenario's environment (the entry point of ``SCENARIOS["winding"]``)."""
+    config = spec.highway_env_config(longitudinal=longitudinal, traffic=traffic, duration_s=duration_s)
+    return WindingRoadEnv(config={"lane_width": spec.lane_width_m, **config})

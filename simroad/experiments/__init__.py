@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-from simroad.experiments.ablate import BACKENDS, ResultStore, run_ablation, run_cell
-from simroad.experiments.episode import FILTER_NAMES, RECORD_KEYS, EpisodeSpec, parse_filters, run_episode
+from simroad.experiments.ablate import BACKENDS, run_ablation, run_cell
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
 from simroad.experiments.export import export_frames
 from simroad.experiments.frames import FrameSet, collect_frames
 from simroad.experiments.grid import AblationGrid, load_grid_file
 from simroad.experiments.report import build_report
+from simroad.experiments.results import ResultStore
 
 __all__ = [
     "BACKENDS",
-    "FILTER_NAMES",
     "RECORD_KEYS",
     "AblationGrid",
     "EpisodeSpec",
@@ -21,7 +21,6 @@ __all__ = [
     "collect_frames",
     "export_frames",
     "load_grid_file",
-    "parse_filters",
     "run_ablation",
     "run_cell",
     "run_episode",

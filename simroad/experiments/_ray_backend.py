@@ -27,7 +27,8 @@ import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from simroad._validation import SimroadError
+import simroad
+from simroad.errors import InvalidParameterError, MissingDependencyError, SimroadError
 from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.grid import cell_key
 
@@ -69,7 +70,9 @@ def check_ray_address(address: Any) -> str | None:
     if address is None:
         return None
     if not isinstance(address, str) or not address.strip():
-        raise SimroadError(f"{_FLAG}: expected HOST:PORT (e.g. 10.0.0.5:6379) or 'auto', got {address!r}. {_HOW}")
+        raise InvalidParameterError(
+            f"{_FLAG}: expected HOST:PORT (e.g. 10.0.0.5:6379) or 'auto', got {address!r}. {_HOW}"
+        )
     address = address.strip()
     if address not in ("auto", "local"):
         _host_port(address)
@@ -79,7 +82,7 @@ def check_ray_address(address: Any) -> str | None:
 def _host_port(address: str) -> tuple[str, int]:
     host, sep, port = address.removeprefix("ray://").rpartition(":")
     if not sep or not host or not port.isdigit() or not 1 <= int(port) <= 65535:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{_FLAG}: expected HOST:PORT with a port in 1-65535 (e.g. 10.0.0.5:6379) or 'auto', "
             f"got {address!r}. {_HOW}"
         )
@@ -94,7 +97,7 @@ def _check_reachable(address: str) -> None:
         socket.create_connection(_host_port(address), timeout=CONNECT_TIMEOUT_S).close()
     except OSError as exc:
         why = exc.strerror or type(exc).__name__
-        raise SimroadError(f"{_FLAG}: no Ray cluster answers at {address!r} ({why}). {_HOW}") from None
+        raise InvalidParameterError(f"{_FLAG}: no Ray cluster answers at {address!r} ({why}). {_HOW}") from None
 
 
 def _connect(ray: Any, address: str | None, workers: int) -> bool:
@@ -110,13 +113,13 @@ def _connect(ray: Any, address: str | None, workers: int) -> bool:
     try:
         ray.init(address=address, log_to_driver=False)
     except auth_error as exc:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{_FLAG}: the Ray cluster at {address!r} refused this driver's token ({exc.args[0] if exc.args else exc}). "
             "Give the driver the cluster's token: RAY_AUTH_MODE=token and RAY_AUTH_TOKEN (or ~/.ray/auth_token) "
             "as on the nodes; see https://docs.ray.io/en/latest/ray-security/token-auth.html"
         ) from None
     except (ConnectionError, ray.exceptions.RayError) as exc:
-        raise SimroadError(f"{_FLAG}: could not join the Ray cluster at {address!r} ({exc}). {_HOW}") from None
+        raise InvalidParameterError(f"{_FLAG}: could not join the Ray cluster at {address!r} ({exc}). {_HOW}") from None
     return True
 
 
@@ -128,10 +131,9 @@ def _one_opencv_thread() -> None:
 
 def _ray_cell(cell_fn: Callable[[EpisodeSpec], dict], spec: EpisodeSpec, version: str) -> dict:
     """One Ray task: run one cell with one OpenCV thread, on the driver's simroad version only."""
-    import simroad
 
     if simroad.__version__ != version:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"this Ray node runs simroad {simroad.__version__}, the driver {version}: "
             f"install simroad {version} on every node of the cluster."
         )
@@ -145,7 +147,7 @@ def _capacity_lost(ray: Any, since: float | None) -> float | None:
         return None
     now = time.monotonic()
     if since is not None and now - since > NO_CPU_TIMEOUT_S:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"backend ray: the cluster has had no node with a CPU for {NO_CPU_TIMEOUT_S:g} s, so the remaining "
             "cells cannot run. The rows already written are kept; add nodes (ray start --address=HEAD:PORT) "
             "and run the same command again to resume."
@@ -206,10 +208,9 @@ def run_on_ray(
     try:
         import ray
     except ImportError:
-        raise SimroadError(
+        raise MissingDependencyError(
             "backend: Ray is not installed; install the extra with pip install 'simroad[ray]'."
         ) from None
-    import simroad
 
     started = _connect(ray, address, workers)
     remote = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(_ray_cell)
@@ -238,7 +239,7 @@ def run_on_ray(
                 with contextlib.suppress(Exception):
                     ray.cancel(ref)
     if failures:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"backend ray: {len(failures)} cell(s) did not run: " + "; ".join(failures[:3])
             + (" ..." if len(failures) > 3 else "")
             + ". The rows already written are kept; fix the cluster and run the same command again to resume."

@@ -30,14 +30,18 @@ import traceback
 from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice, check_int_in_range
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, format_filters, run_episode
+from simroad.core.validation import check_choice, check_int_in_range
+from simroad.errors import InvalidParameterError
+from simroad.experiments._ray_backend import run_on_ray
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
+from simroad.experiments.export import ensure_writable_dir
 from simroad.experiments.grid import AblationGrid, cell_key
-from simroad.experiments.outlock import DirectoryLocked, OutputLock
+from simroad.experiments.outlock import OutputLock
 from simroad.experiments.pool import Interrupts, run_in_workers
 from simroad.experiments.results import ResultStore  # re-exported here for old imports
+from simroad.filters.pipeline import format_filters
 
-__all__ = ["BACKENDS", "TEST_CELL_FN_ENV", "DirectoryLocked", "ResultStore", "run_ablation", "run_cell"]
+__all__ = ["BACKENDS", "TEST_CELL_FN_ENV", "run_ablation", "run_cell"]
 
 BACKENDS = ("local", "ray")
 #: For tests only: ``module:function`` replacing the default :func:`run_cell` of
@@ -63,7 +67,7 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
         NaN.
     """
     if not isinstance(spec, EpisodeSpec):
-        raise SimroadError(f"spec: expected an EpisodeSpec, got {type(spec).__name__} {spec!r}.")
+        raise InvalidParameterError(f"spec: expected an EpisodeSpec, got {type(spec).__name__} {spec!r}.")
     try:
         record = episode_fn(spec)
         record["error"] = None
@@ -105,7 +109,6 @@ def _local(specs: list[EpisodeSpec], workers: int, cell_fn: Callable) -> Iterato
 
 def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: Callable) -> Iterator[dict]:
     """The Ray backend (:mod:`simroad.experiments._ray_backend`): one task per cell, retried on node death."""
-    from simroad.experiments._ray_backend import run_on_ray
 
     return run_on_ray(specs, workers=workers, address=address, cell_fn=cell_fn)
 
@@ -138,10 +141,9 @@ def run_ablation(
     (:class:`~simroad.experiments.outlock.OutputLock`): a second sweep on it raises
     :class:`DirectoryLocked` (a :class:`SimroadError`) naming the holder's PID.
     """
-    from simroad.experiments.export import ensure_writable_dir
 
     if not isinstance(grid, AblationGrid):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"grid: expected an AblationGrid, got {type(grid).__name__} {grid!r}. "
             "Build one with AblationGrid(scenarios=..., noises=...) or load_grid_file(path)."
         )
@@ -149,7 +151,7 @@ def run_ablation(
     workers = check_int_in_range("workers", workers if workers is not None else (os.cpu_count() or 1), 1, 4096)
     specs = grid.specs()
     if not specs:
-        raise SimroadError("grid: it has no cells; give at least one scenario, noise, filter set and seed.")
+        raise InvalidParameterError("grid: it has no cells; give at least one scenario, noise, filter set and seed.")
     if cell_fn is run_cell:
         cell_fn = _test_cell_fn(cell_fn)
     ensure_writable_dir("out", out)

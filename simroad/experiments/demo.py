@@ -14,7 +14,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from simroad._validation import SimroadError, check_output_dir
+from simroad.core.validation import check_output_dir
+from simroad.errors import InvalidParameterError
 from simroad.experiments.episode import EpisodeSpec, run_episode
 from simroad.experiments.export import ensure_writable_dir
 from simroad.filters import parse_filters
@@ -60,7 +61,7 @@ def write_videos(
         The videos written, in the order of ``noises``.
     """
     if isinstance(noises, str) or not noises:
-        raise SimroadError(f"noises: expected a tuple of weathers such as ('clear', 'rain'), got {noises!r}.")
+        raise InvalidParameterError(f"noises: expected a tuple of weathers such as ('clear', 'rain'), got {noises!r}.")
     check_output_dir("out", out)
     specs = [  # every episode checked before the first one runs
         EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=parse_filters("all"),

@@ -57,24 +57,24 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import (
-    SimroadError,
+from simroad.control.drivers import DRIVER_NAMES, make_driver
+from simroad.core.validation import (
     check_bool,
     check_choice,
     check_in_range,
     check_int_in_range,
     check_output_file,
 )
-from simroad.control.drivers import DRIVER_NAMES, make_driver
 from simroad.detector.registry import check_detector, describe, load_detector
 from simroad.envs import RoadCamConfig, RoadCamEnv, get_scenario
 from simroad.envs.routes import lap_length_m
+from simroad.errors import InvalidParameterError, SimroadError
 from simroad.experiments.video import EpisodeVideo
-from simroad.filters import FILTER_NAMES, format_filters, parse_filters  # re-exported here for old imports
+from simroad.filters import format_filters, parse_filters  # re-exported here for old imports
 from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
-__all__ = ["FILTER_NAMES", "RECORD_KEYS", "EpisodeSpec", "format_filters", "parse_filters", "run_episode"]
+__all__ = ["RECORD_KEYS", "EpisodeSpec", "run_episode"]
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
@@ -118,7 +118,7 @@ class EpisodeSpec:
         object.__setattr__(self, "seed", check_int_in_range("seed", self.seed, 0, 2**31 - 1))
         object.__setattr__(self, "severity", check_in_range("severity", self.severity, 0.0, 1.0))
         if not isinstance(self.filters, (str, list, tuple)):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"filters: expected 'none', 'all', names joined by '+' or a tuple of names, got "
                 f"{type(self.filters).__name__} {self.filters!r}."
             )
@@ -128,7 +128,7 @@ class EpisodeSpec:
         if self.route_m is not None:
             object.__setattr__(self, "route_m", check_in_range("route_m", self.route_m, 1.0, 1e6, unit="m"))
         if not isinstance(self.detector, str) or not self.detector.strip():
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector: expected a detector spec ('paper', a registered name, 'module:attr' or "
                 f"'path/to/file.py:attr'), got {self.detector!r}."
             )
@@ -139,13 +139,13 @@ class EpisodeSpec:
         """Validate the environment's options now, not when the episode starts."""
         check_bool("traffic", self.traffic)
         if not isinstance(self.env_options, Mapping):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"env_options: expected a dict of RoadCam options such as {{'width': 640}}, "
                 f"got {type(self.env_options).__name__}."
             )
         clash = sorted(set(self.env_options) & set(_SPEC_ENV_KEYS))
         if clash:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"env_options: {', '.join(map(repr, clash))} set by the spec itself; pass "
                 f"{', '.join(f'{k}=...' for k in clash if k in _SPEC_FIELDS) or 'nothing'} to EpisodeSpec "
                 "instead (longitudinal and duration_s follow from the driver and steps)."
@@ -155,7 +155,7 @@ class EpisodeSpec:
         try:
             RoadCamConfig.from_kwargs(**own, **self.env_options)
         except SimroadError as exc:
-            raise SimroadError(f"env_options: {exc}") from None
+            raise InvalidParameterError(f"env_options: {exc}") from None
 
 
 #: RoadCam options the spec sets itself (so not allowed in ``env_options``).
@@ -191,7 +191,7 @@ def run_episode(
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
     """
     if not isinstance(spec, EpisodeSpec):
-        raise SimroadError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
+        raise InvalidParameterError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
     if video is not None:
         check_output_file("video", video, suffixes=(".mp4", ".gif"))
     t_start = time.perf_counter()

@@ -16,12 +16,17 @@ from typing import Any
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
-from simroad.detector.registry import predict_alone
+from simroad.core.validation import check_choice, check_in_range, check_int_in_range
+from simroad.detector import RoadDetector
+from simroad.detector.registry import load_detector, predict_alone
 from simroad.envs import SCENARIO_NAMES
+from simroad.errors import InvalidParameterError, SimroadError
+from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.training import HELD_OUT_SEEDS
-from simroad.filters import format_filters, parse_filters
+from simroad.experiments.video import overlay_frame
+from simroad.filters import format_filters, parse_filters, remove_highlights, remove_shadows
+from simroad.filters.pipeline import FILTERS
 from simroad.metrics.mask import MaskScore
 
 __all__ = [
@@ -52,7 +57,7 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
     idir, mdir = Path(images), Path(masks)
     for name, d in (("images", idir), ("masks", mdir)):
         if not d.is_dir():
-            raise SimroadError(f"{name}: {str(d)!r} is not a directory.")
+            raise InvalidParameterError(f"{name}: {str(d)!r} is not a directory.")
     exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
     mask_files = {p.stem: p for p in mdir.iterdir() if p.suffix.lower() in exts}
     out = FrameSet()
@@ -64,9 +69,9 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
         bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
         grey = cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)
         if bgr is None or grey is None:
-            raise SimroadError(f"images: could not read {str(p)!r} or {str(m)!r}.")
+            raise InvalidParameterError(f"images: could not read {str(p)!r} or {str(m)!r}.")
         if grey.shape != bgr.shape[:2]:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"masks: {m.name} is {grey.shape[::-1]} but {p.name} is {bgr.shape[1::-1]} (width x height)."
             )
         out.images.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
@@ -75,12 +80,11 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
         out.valid.append(np.ones(grey.shape, bool))
         out.source.append((p.name, 0, 0))
     if not out.images:
-        raise SimroadError(f"images: no image in {str(idir)!r} has a mask of the same name in {str(mdir)!r}.")
+        raise InvalidParameterError(f"images: no image in {str(idir)!r} has a mask of the same name in {str(mdir)!r}.")
     return out
 
 
 def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
-    from simroad.filters import remove_highlights, remove_shadows
 
     fns: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shadows, "light": remove_highlights}
     scores: dict[str, MaskScore] = {}
@@ -99,7 +103,6 @@ def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, M
 
 
 def _pretrained(filters: tuple[str, ...]) -> Any:
-    from simroad.detector import RoadDetector
 
     return RoadDetector.pretrained(filters=filters)
 
@@ -109,7 +112,7 @@ def detector_factory(
 ) -> DetectorFactory:
     """``filters -> detector`` for a model file (the paper's detector) or a detector spec."""
     if model is not None and detector != "paper":
-        raise SimroadError(
+        raise InvalidParameterError(
             f"model: a model file is for the paper's detector; got it with detector={detector!r}. Give one of them."
         )
     return model_factory(model) if model is not None else _spec_factory(detector, options)
@@ -118,7 +121,6 @@ def detector_factory(
 def _spec_factory(spec: str, options: Mapping[str, Any] | None) -> DetectorFactory:
     """Build the detector ``spec`` names with ``options``, checked now (a bad spec
     fails before any frame is rendered), each filter setting in front."""
-    from simroad.detector.registry import load_detector
 
     load_detector(spec, options)
     return lambda filters: load_detector(spec, options, filters=filters)
@@ -128,12 +130,11 @@ def model_factory(path: str | os.PathLike) -> DetectorFactory:
     """A detector factory for the model file at ``path`` (read once, checked now):
     its own filter setting returns the loaded detector, another setting a fresh copy
     set to those filters."""
-    from simroad.detector import RoadDetector
 
     try:
         base = RoadDetector.load(path)
     except SimroadError as exc:
-        raise SimroadError(f"model: {exc}") from None
+        raise InvalidParameterError(f"model: {exc}") from None
 
     def factory(filters: tuple[str, ...]) -> Any:
         if filters == tuple(base.filters):
@@ -245,11 +246,13 @@ def evaluate_detector(
         As :func:`evaluate_frames` returns them.
     """
     if isinstance(settings, str) or not settings:
-        raise SimroadError(f"settings: expected a list of filter settings such as ['none', 'all'], got {settings!r}.")
+        raise InvalidParameterError(
+            f"settings: expected a list of filter settings such as ['none', 'all'], got {settings!r}."
+        )
     parsed = [parse_filters(f) for f in settings]
     if images is not None or masks is not None:
         if images is None or masks is None:
-            raise SimroadError("images: --images and --masks go together.")
+            raise InvalidParameterError("images: --images and --masks go together.")
     else:
         check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
         check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
@@ -286,7 +289,6 @@ def qualitative_figure(
 ) -> Path:
     """The paper's Figs. 3-6 for every noise: the noisy frame, the mask without
     filters, the mask with all filters, and the ground-truth outline."""
-    from simroad.experiments.figures import check_figure_path
 
     out = check_figure_path("figure", path)
     check_choice("scenario", scenario, SCENARIO_NAMES)
@@ -296,9 +298,6 @@ def qualitative_figure(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from simroad.detector import FILTERS, RoadDetector
-    from simroad.experiments.video import overlay_frame
 
     noises = ("glare", "shadow", "snow", "rain")
     plain, full = RoadDetector.pretrained(filters=()), RoadDetector.pretrained(filters=tuple(FILTERS))

@@ -11,8 +11,9 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from simroad._validation import SimroadError, check_int_in_range, check_output_dir
+from simroad.core.validation import check_int_in_range, check_output_dir
 from simroad.envs import RoadCamEnv
+from simroad.errors import InvalidParameterError
 from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["ensure_writable_dir", "export_frames"]
@@ -24,18 +25,18 @@ def ensure_writable_dir(name: str, path: str | os.PathLike) -> Path:
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: cannot create directory {str(p)!r} ({exc.strerror}). Choose a writable path."
         ) from None
     if not p.is_dir() or not os.access(p, os.W_OK):
-        raise SimroadError(f"{name}: {str(p)!r} is not a writable directory. Choose a writable path.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} is not a writable directory. Choose a writable path.")
     return p
 
 
 def _write_png(path: Path, rgb_or_grey: np.ndarray) -> None:
     img = rgb_or_grey if rgb_or_grey.ndim == 2 else cv2.cvtColor(rgb_or_grey, cv2.COLOR_RGB2BGR)
     if not cv2.imwrite(str(path), img):
-        raise SimroadError(f"out: could not write {str(path)!r}. Check free space and permissions.")
+        raise InvalidParameterError(f"out: could not write {str(path)!r}. Check free space and permissions.")
 
 
 def export_frames(
@@ -70,7 +71,7 @@ def export_frames(
     count = check_int_in_range("count", count, 1, 100_000)
     every = check_int_in_range("every", every, 1, 1000)
     if env_kwargs is not None and not isinstance(env_kwargs, dict):
-        raise SimroadError(f"env_kwargs: expected a dict of RoadCam options, got {type(env_kwargs).__name__}.")
+        raise InvalidParameterError(f"env_kwargs: expected a dict of RoadCam options, got {type(env_kwargs).__name__}.")
     check_output_dir("out", out)
     env = RoadCamEnv(**(env_kwargs or {}))  # validate every option before touching the disk
     out_dir = ensure_writable_dir("out", out)

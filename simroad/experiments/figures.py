@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from simroad._validation import check_int_in_range, check_output_file
+from simroad.core.validation import check_int_in_range, check_output_file
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
 from simroad.experiments.export import ensure_writable_dir
 from simroad.experiments.rollout import drive_autopilot

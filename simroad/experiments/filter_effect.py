@@ -24,9 +24,11 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.core.validation import check_choice, check_in_range, check_int_in_range
+from simroad.detector import RoadDetector
 from simroad.detector.registry import predict_alone
 from simroad.envs import SCENARIO_NAMES
+from simroad.errors import InvalidParameterError
 from simroad.experiments.frames import FrameSet, collect_frames
 from simroad.experiments.stats import COUNT_KEYS, paired_pooled_difference
 from simroad.filters import FILTER_REGISTRY, FILTERS, check_filters
@@ -42,7 +44,6 @@ DetectorFactory = Callable[[tuple[str, ...]], object]
 
 
 def _default_factory(filters: tuple[str, ...]):
-    from simroad.detector import RoadDetector
 
     return RoadDetector.pretrained(filters=filters)
 
@@ -61,7 +62,7 @@ def _render(noise: str, seeds: tuple[int, ...], frames: int, severity: float, ev
 def _episodes(frames: FrameSet) -> list[tuple[str, int]]:
     """The episode (scenario, seed) of each frame, from ``frames.source``."""
     if len(frames.source) != len(frames.images):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"frames.source: expected one (scenario, seed, step) per frame to tell the episodes apart, "
             f"got {len(frames.source)} for {len(frames.images)} frames."
         )
@@ -85,7 +86,7 @@ def _check_protocol(
 ) -> tuple[tuple[int, ...], int, float, int]:
     worlds = tuple(int(s) for s in seeds)
     if not worlds:
-        raise SimroadError("seeds: expected at least one seed (held-out worlds are >= 100), got none.")
+        raise InvalidParameterError("seeds: expected at least one seed (held-out worlds are >= 100), got none.")
     frames = check_int_in_range("frames", frames, 1, 10_000)
     severity = check_in_range("severity", severity, 0.0, 1.0)
     every = check_int_in_range("every", every, 1, 1000)
@@ -141,7 +142,7 @@ def filter_effect(
     worlds, frames, severity, every = _check_protocol(seeds, frames, severity, every)
     names = check_filters(filters)
     if not names:
-        raise SimroadError("filters: expected at least one filter to compare against none, got none.")
+        raise InvalidParameterError("filters: expected at least one filter to compare against none, got none.")
     factory = detector_factory or _default_factory
     frame_set = _render(noise, worlds, frames, severity, every, {} if cache is None else cache)
     without, counts_off = _score(factory(()), frame_set)

@@ -7,8 +7,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range, check_int_in_range
+from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.envs import SCENARIO_NAMES, RoadCamConfig, RoadCamEnv
+from simroad.errors import InvalidParameterError
 from simroad.experiments.rollout import drive_autopilot
 from simroad.noise import parse_noise
 
@@ -33,17 +34,19 @@ def check_frame_protocol(
     known names), seeds (one or more integers in [0, 2**31 - 1]), the weather spec and
     its severity in [0, 1]. Returns the scenarios and seeds as tuples."""
     if isinstance(scenarios, str) or not isinstance(scenarios, Iterable):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"scenarios: expected a list of scenario names, got {type(scenarios).__name__} {scenarios!r}."
         )
     names = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in scenarios)
     if not names:
-        raise SimroadError(f"scenarios: expected at least one of {', '.join(SCENARIO_NAMES)}, got none.")
+        raise InvalidParameterError(f"scenarios: expected at least one of {', '.join(SCENARIO_NAMES)}, got none.")
     if isinstance(seeds, (str, bytes)) or not isinstance(seeds, Iterable):
-        raise SimroadError(f"seeds: expected a list or range of integer seeds, got {type(seeds).__name__} {seeds!r}.")
+        raise InvalidParameterError(
+            f"seeds: expected a list or range of integer seeds, got {type(seeds).__name__} {seeds!r}."
+        )
     worlds = tuple(check_int_in_range("seeds", s, 0, 2**31 - 1) for s in seeds)
     if not worlds:
-        raise SimroadError("seeds: expected at least one seed, got none (e.g. range(100, 105)).")
+        raise InvalidParameterError("seeds: expected at least one seed, got none (e.g. range(100, 105)).")
     parse_noise(noise)
     check_in_range("severity", severity, 0.0, 1.0)
     return names, worlds
@@ -82,7 +85,9 @@ def collect_frames(
     every = check_int_in_range("every", every, 1, 1000)
     check_in_range("steer_noise", steer_noise, 0.0, 2.0)
     if env_options is not None and not isinstance(env_options, dict):
-        raise SimroadError(f"env_options: expected a dict of RoadCam options, got {type(env_options).__name__}.")
+        raise InvalidParameterError(
+            f"env_options: expected a dict of RoadCam options, got {type(env_options).__name__}."
+        )
     RoadCamConfig.from_kwargs(scenario=scenarios[0], noise=noise, severity=severity, **(env_options or {}))
     out = FrameSet()
     for scenario in scenarios:

@@ -16,7 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from simroad.control.autopilot import STEERING_RANGE_RAD, autopilot_action
 from simroad.envs.friction import RoadGrip, cornering_speed_m_s, road_grip, stopping_distance_m
+from simroad.envs.tyres import attach_grip
+from simroad.experiments.export import ensure_writable_dir
+from simroad.experiments.figures import check_figure_path
+from simroad.noise import make_weather
 
 __all__ = ["FIGURE_WEATHERS", "friction_figure", "simulated_braking_m", "simulated_cornering_m_s", "weather_grips"]
 
@@ -38,7 +43,6 @@ _DT = 1.0 / 15.0  # highway-env's physics step in every scenario
 
 def weather_grips() -> list[tuple[str, RoadGrip]]:
     """(label, road friction) of every weather of :data:`FIGURE_WEATHERS`."""
-    from simroad.noise import make_weather
 
     out = []
     for label, noise, severity, surface in FIGURE_WEATHERS:
@@ -61,8 +65,6 @@ def simulated_braking_m(grip: RoadGrip, speed_m_s: float = 25.0) -> float:
     from highway_env.road.lane import StraightLane
     from highway_env.vehicle.kinematics import Vehicle
 
-    from simroad.envs.tyres import attach_grip
-
     road = _road(StraightLane([0.0, 0.0], [1e4, 0.0]))
     car = Vehicle(road, [0.0, 0.0], 0.0, speed_m_s)
     road.vehicles.append(car)
@@ -76,9 +78,6 @@ def simulated_braking_m(grip: RoadGrip, speed_m_s: float = 25.0) -> float:
 def _holds(grip: RoadGrip, speed: float, radius: float, seconds: float = 8.0) -> bool:
     from highway_env.road.lane import CircularLane
     from highway_env.vehicle.kinematics import Vehicle
-
-    from simroad.control.autopilot import STEERING_RANGE_RAD, autopilot_action
-    from simroad.envs.tyres import attach_grip
 
     lane = CircularLane([0.0, 0.0], radius, -math.pi / 2, 1.5 * math.pi, clockwise=True, width=3.5)
     road = _road(lane)
@@ -107,8 +106,6 @@ def simulated_cornering_m_s(grip: RoadGrip, radius_m: float = 50.0, *, iteration
 def friction_figure(out: str | os.PathLike, *, speed_m_s: float = 25.0, radius_m: float = 50.0) -> Path:
     """Braking distance from ``speed_m_s`` and cornering speed on ``radius_m``, per
     weather of :data:`FIGURE_WEATHERS`, simulated (bars) and in theory (dots). Writes a PNG."""
-    from simroad.experiments.export import ensure_writable_dir
-    from simroad.experiments.figures import check_figure_path
 
     out = check_figure_path("out", out)
     import matplotlib

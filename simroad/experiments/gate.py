@@ -8,7 +8,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from simroad._validation import SimroadError, check_choice
+from simroad.core.validation import check_choice
+from simroad.errors import InvalidParameterError
 from simroad.experiments.results import ROW_TYPES
 
 __all__ = ["TEXT_KEYS", "Requirement", "check_requirements", "parse_requirement"]
@@ -42,14 +43,14 @@ def parse_requirement(text: str, *, valid_keys: Sequence[str]) -> Requirement:
     """Parse ``'key<=value'`` (operators ``<``, ``<=``, ``>``, ``>=``)."""
     m = _PATTERN.match(text)
     if not m:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"require: cannot parse {text!r}; expected KEY OP VALUE with OP one of <, <=, >, >= "
             f"(for example 'offroad_fraction<=0.01')."
         )
     key, op, raw = m.groups()
     check_choice("require", key, valid_keys)
     if key in TEXT_KEYS:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"require: {key!r} is a text field of the record, not a number, so {text!r} cannot be checked; "
             "gate on a numeric key such as 'fnr<=0.05' or 'offroad_fraction<=0.01'."
         )
@@ -58,7 +59,7 @@ def parse_requirement(text: str, *, valid_keys: Sequence[str]) -> Requirement:
         try:
             value = float(raw)
         except ValueError:
-            raise SimroadError(f"require: {raw!r} in {text!r} is not a number.") from None
+            raise InvalidParameterError(f"require: {raw!r} in {text!r} is not a number.") from None
     return Requirement(key, op, value)
 
 

@@ -13,8 +13,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import (
-    SimroadError,
+from simroad.core.validation import (
     check_bool,
     check_choice,
     check_finite_number,
@@ -22,8 +21,11 @@ from simroad._validation import (
     check_int_in_range,
 )
 from simroad.detector.registry import check_detector, resolve_factory
-from simroad.envs.config import SCENARIO_NAMES
-from simroad.experiments.episode import EpisodeSpec, format_filters, parse_filters
+from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.errors import InvalidParameterError, SimroadError
+from simroad.experiments.episode import EpisodeSpec
+from simroad.filters.pipeline import format_filters, parse_filters
+from simroad.noise import parse_noise
 
 __all__ = ["AblationGrid", "cell_key", "load_grid_file"]
 
@@ -34,20 +36,19 @@ def _split(name: str, value: Any) -> list[str]:
     elif isinstance(value, (list, tuple)):
         items = [str(v).strip() for v in value]
     else:
-        raise SimroadError(f"{name}: expected a comma-separated string or a list, got {value!r}.")
+        raise InvalidParameterError(f"{name}: expected a comma-separated string or a list, got {value!r}.")
     items = [v for v in items if v]
     if not items:
-        raise SimroadError(f"{name}: the list is empty; give at least one value.")
+        raise InvalidParameterError(f"{name}: the list is empty; give at least one value.")
     return items
 
 
 def _canonical_noise(spec: str) -> str:
-    from simroad.noise import parse_noise
 
     try:
         return "+".join(parse_noise(spec)) or "clear"
     except SimroadError as exc:
-        raise SimroadError(f"noises: {exc}") from None
+        raise InvalidParameterError(f"noises: {exc}") from None
 
 
 def _numbers(name: str, value: Any) -> list[float]:
@@ -56,14 +57,14 @@ def _numbers(name: str, value: Any) -> list[float]:
         value = [value]
     items = value if isinstance(value, (list, tuple)) else _split(name, value)
     if not items:
-        raise SimroadError(f"{name}: the list is empty; give at least one value.")
+        raise InvalidParameterError(f"{name}: the list is empty; give at least one value.")
     out = []
     for item in items:
         if isinstance(item, str):
             try:
                 item = float(item.strip())
             except ValueError:
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"{name}: {item!r} is not a number; expected numbers such as 0.3,0.7 (in {value!r})."
                 ) from None
         out.append(check_finite_number(name, item))
@@ -106,12 +107,12 @@ class AblationGrid:
             try:
                 resolve_factory(d)
             except SimroadError as exc:
-                raise SimroadError(f"detectors: {exc}") from None
+                raise InvalidParameterError(f"detectors: {exc}") from None
         for name, vals in (
             ("scenarios", scen), ("noises", noises), ("severities", sev), ("filters", filt), ("detectors", dets)
         ):  # fmt: skip
             if len(set(vals)) != len(vals):
-                raise SimroadError(f"{name}: duplicate values in {list(vals)}.")
+                raise InvalidParameterError(f"{name}: duplicate values in {list(vals)}.")
         object.__setattr__(self, "scenarios", scen)
         object.__setattr__(self, "noises", noises)
         object.__setattr__(self, "severities", sev)
@@ -184,14 +185,14 @@ def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
 def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dict]:
     """``{spec: {key: value}}`` for specs of ``detectors`` only."""
     if not isinstance(options, Mapping):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"detector_options: expected a table of detector spec -> options, e.g. "
             f"{{'mine.py:Detector': {{'threshold': 0.5}}}}, got {type(options).__name__}."
         )
     out = {}
     for spec, opts in options.items():
         if spec not in detectors:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"detector_options: {spec!r} is not one of the grid's detectors {list(detectors)}; "
                 "give options only for a detector the grid runs."
             )
@@ -204,15 +205,17 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``."""
     p = Path(path)
     if p.is_dir():
-        raise SimroadError(f"config: {str(p)!r} is a directory; give a TOML file such as {str(p / 'grid.toml')!r}.")
+        raise InvalidParameterError(
+            f"config: {str(p)!r} is a directory; give a TOML file such as {str(p / 'grid.toml')!r}."
+        )
     try:
         data = tomllib.loads(p.read_text(encoding="utf-8-sig"))  # UTF-8, with or without a BOM (Windows editors)
     except FileNotFoundError:
-        raise SimroadError(f"config: file {str(p)!r} not found.") from None
+        raise InvalidParameterError(f"config: file {str(p)!r} not found.") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise SimroadError(f"config: {str(p)!r} is not valid TOML ({exc}).") from None
+        raise InvalidParameterError(f"config: {str(p)!r} is not valid TOML ({exc}).") from None
     except OSError as exc:
-        raise SimroadError(f"config: cannot read {str(p)!r} ({exc.strerror}).") from None
+        raise InvalidParameterError(f"config: cannot read {str(p)!r} ({exc.strerror}).") from None
     valid = [f.name for f in fields(AblationGrid)] + ["workers", "backend", "ray_address", "out"]
     out = {}
     for key, value in data.items():
@@ -220,7 +223,9 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
         if k not in valid:
             close = difflib.get_close_matches(k, valid, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
-            raise SimroadError(f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}")
+            raise InvalidParameterError(
+                f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}"
+            )
         out[k] = _check_run_key(k, value, p) if k in RUN_KEY_TYPES else value
     return out
 
@@ -242,7 +247,7 @@ def _check_run_key(key: str, value: Any, path: Path) -> Any:
     else:
         ok = isinstance(value, str) and value.strip() != ""
     if not ok:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"config: {key} in {str(path)!r}: expected {RUN_KEY_TYPES[key]}, got {type(value).__name__} {value!r}."
         )
     return value

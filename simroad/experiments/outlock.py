@@ -23,7 +23,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from simroad._validation import SimroadError
+from simroad.errors import OutputInUseError
 
 __all__ = ["LOCK_NAME", "DirectoryLocked", "OutputLock"]
 
@@ -32,7 +32,7 @@ LOCK_NAME = "sweep.lock"
 _GUARD_STALE_S = 10.0
 
 
-class DirectoryLocked(SimroadError):
+class DirectoryLocked(OutputInUseError):
     """Another live process holds the output directory's lock."""
 
 

@@ -39,7 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_input_dir, check_input_file
+from simroad.core.validation import check_input_dir, check_input_file
+from simroad.errors import InvalidParameterError
 from simroad.experiments.report_figures import error_rates_figure, paired_figure, safety_figure
 from simroad.experiments.results import RESULTS_NAME, BadLine, read_results
 from simroad.experiments.stats import (
@@ -285,17 +286,19 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
     d = check_input_dir("dir", directory)
     path = d / RESULTS_NAME
     if not path.exists():
-        raise SimroadError(f"dir: no {RESULTS_NAME} in {str(d)!r}; run 'simroad ablate --out {d}' first.")
+        raise InvalidParameterError(f"dir: no {RESULTS_NAME} in {str(d)!r}; run 'simroad ablate --out {d}' first.")
     check_input_file("dir", path)
     try:
         records, bad = read_results(path)
     except OSError as exc:
-        raise SimroadError(f"dir: cannot read {str(path)!r} ({exc.strerror or exc}).") from None
+        raise InvalidParameterError(f"dir: cannot read {str(path)!r} ({exc.strerror or exc}).") from None
     say = log or (lambda message: print(message, file=sys.stderr))
     for b in bad:
         say(f"{path}: {b}; not used")
     if not records:
-        raise SimroadError(f"dir: {str(path)!r} holds no finished episode yet ({len(bad)} line(s) not usable).")
+        raise InvalidParameterError(
+            f"dir: {str(path)!r} holds no finished episode yet ({len(bad)} line(s) not usable)."
+        )
     rows = summarise(records)
     paired = paired_differences(records)
     out = {name: d / name for name in _FILES}

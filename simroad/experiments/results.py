@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from simroad._validation import SimroadError
+from simroad.errors import InvalidParameterError
 from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.grid import AblationGrid, cell_key
 
@@ -189,7 +189,7 @@ class ResultStore:
 
     def __init__(self, directory: str | os.PathLike, *, log: Callable[[str], None] | None = None) -> None:
         if not isinstance(directory, (str, os.PathLike)) or not str(directory):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"directory: expected a folder path (str or os.PathLike), got {type(directory).__name__} {directory!r}."
             )
         self.dir = Path(directory)
@@ -209,12 +209,12 @@ class ResultStore:
                 old = json.loads(self.grid_path.read_text())
                 old_print, old_grid = old.get("fingerprint"), old.get("grid")
             except (ValueError, UnicodeDecodeError, AttributeError):
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"out: {str(self.grid_path)!r} is damaged (not the JSON object simroad writes). "
                     "Choose another --out, or pass --fresh to delete the results there and start anew."
                 ) from None
             if old_print != meta["fingerprint"]:
-                raise SimroadError(
+                raise InvalidParameterError(
                     f"out: {str(self.dir)!r} holds results of a different grid ({old_grid}). "
                     f"Choose another --out, or pass --fresh to delete them and start anew."
                 )
@@ -234,7 +234,7 @@ class ResultStore:
             listed = "; ".join(str(b) for b in others[:10]) + (
                 f"; and {len(others) - 10} more" if len(others) > 10 else ""
             )
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"out: {str(self.path)!r} has lines that are not valid results rows ({listed}). "
                 f"Move them out of the file (e.g. into {REJECTED_NAME}) and rerun to run their cells again, "
                 "or pass --fresh to start anew; 'simroad report' lists them too."

@@ -21,9 +21,10 @@ from typing import Any
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
 from simroad.camera import CameraConfig, PinholeCamera
+from simroad.core.validation import check_in_range
 from simroad.detector.registry import predict_alone
+from simroad.errors import InvalidParameterError
 from simroad.experiments.frames import FrameSet
 from simroad.filters import format_filters
 from simroad.metrics.mask import MaskScore
@@ -65,7 +66,7 @@ def fit_to_camera(frames: FrameSet) -> FrameSet:
         h, w = img.shape[:2]
         scale = min(1.0, MAX_SIZE[0] / w, MAX_SIZE[1] / h)
         if h < 16 or w < 16:
-            raise SimroadError(f"images: photo {k} is {w}x{h}; the weather needs at least 16x16 pixels.")
+            raise InvalidParameterError(f"images: photo {k} is {w}x{h}; the weather needs at least 16x16 pixels.")
         if scale < 1.0:
             size = (max(16, int(w * scale)), max(16, int(h * scale)))
             img = cv2.resize(img, size, interpolation=cv2.INTER_AREA)
@@ -131,7 +132,7 @@ def robustness(
     """
     sevs = [check_in_range("severity", s, 0.0, 1.0) for s in severities]
     if not sevs or not noises:
-        raise SimroadError("noises, severities: give at least one weather and one severity.")
+        raise InvalidParameterError("noises, severities: give at least one weather and one severity.")
     spoiled = {(n, s): weathered(frames, n, s, seed=seed, mount=mount) for n in noises for s in sevs}
     rows, summary = [], []
     for filters in settings:

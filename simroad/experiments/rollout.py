@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import check_int_in_range
 from simroad.control.autopilot import autopilot_action
+from simroad.core.validation import check_int_in_range
 from simroad.envs import RoadCamEnv
 
 __all__ = ["autopilot_env_action", "drive_autopilot"]

@@ -49,7 +49,8 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range, check_int_in_range
+from simroad.core.validation import check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = [
     "ALL_FILTERS",
@@ -181,7 +182,7 @@ def proportion_interval(flags: Iterable[Any], *, confidence: float = CONFIDENCE)
     v = _finite(flags)
     if len(v) and not np.isin(v, (0.0, 1.0)).all():
         bad = next(x for x in v if x not in (0.0, 1.0))
-        raise SimroadError(f"flags: expected true/false (or 0/1) per episode, got {bad!r}.")
+        raise InvalidParameterError(f"flags: expected true/false (or 0/1) per episode, got {bad!r}.")
     if len(v) == 0:
         return math.nan, math.nan, math.nan
     from scipy import stats
@@ -216,17 +217,19 @@ def _episode_counts(name: str, counts: Any) -> np.ndarray:
     try:
         a = np.asarray(counts, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise SimroadError(f"{name}: expected per-episode counts (episodes x {', '.join(COUNT_KEYS)}): {exc}") from None
+        raise InvalidParameterError(
+            f"{name}: expected per-episode counts (episodes x {', '.join(COUNT_KEYS)}): {exc}"
+        ) from None
     if a.size == 0:
         a = a.reshape(0, len(COUNT_KEYS))
     if a.ndim != 2 or a.shape[1] != len(COUNT_KEYS):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected per-episode counts of shape (episodes, 4) in the order "
             f"{', '.join(COUNT_KEYS)}, got shape {a.shape}."
         )
     bad = ~(np.isfinite(a) & (a >= 0) & (a == np.round(a)))
     if bad.any():
-        raise SimroadError(f"{name}: expected non-negative integer pixel counts, got {float(a[bad][0])!r}.")
+        raise InvalidParameterError(f"{name}: expected non-negative integer pixel counts, got {float(a[bad][0])!r}.")
     return a.astype(np.int64)
 
 
@@ -273,7 +276,9 @@ def paired_pooled_difference(
     _check_bootstrap(confidence, n_resamples, seed)
     a, b = _episode_counts("setting", setting), _episode_counts("baseline", baseline)
     if len(a) != len(b):
-        raise SimroadError(f"setting, baseline: expected the same episodes in both, got {len(a)} and {len(b)} rows.")
+        raise InvalidParameterError(
+            f"setting, baseline: expected the same episodes in both, got {len(a)} and {len(b)} rows."
+        )
     if len(a) == 0:
         return math.nan, math.nan, math.nan
     diff = float(fnr_plus_fpr(a.sum(axis=0)) - fnr_plus_fpr(b.sum(axis=0)))

@@ -6,7 +6,8 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-from simroad._validation import check_int_in_range
+from simroad.core.validation import check_int_in_range
+from simroad.detector import train_default
 from simroad.detector.persistence import check_model_destination
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.frames import check_frame_protocol, collect_frames
@@ -72,7 +73,6 @@ def train_detector(
         The file written; load it with ``RoadDetector.load(path)`` or pass it to
         ``simroad evaluate-detector --model PATH``.
     """
-    from simroad.detector import train_default
 
     check_frame_protocol(scenarios=scenarios, seeds=seeds, noise="clear", severity=0.0)
     check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from simroad._validation import SimroadError
+from simroad.errors import InvalidParameterError
 
 __all__ = ["EpisodeVideo", "overlay_frame"]
 
@@ -53,11 +53,11 @@ class EpisodeVideo:
     def __init__(self, path: str | os.PathLike, env, *, fps: int = 5) -> None:
         self.path = Path(path)
         if self.path.suffix.lower() not in (".mp4", ".gif"):
-            raise SimroadError(f"video: expected a path ending in .mp4 or .gif, got {str(self.path)!r}.")
+            raise InvalidParameterError(f"video: expected a path ending in .mp4 or .gif, got {str(self.path)!r}.")
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise SimroadError(f"video: cannot create {str(self.path.parent)!r} ({exc.strerror}).") from None
+            raise InvalidParameterError(f"video: cannot create {str(self.path.parent)!r} ({exc.strerror}).") from None
         self.env = env
         self.fps = fps
         self.frames: list[np.ndarray] = []
@@ -97,12 +97,12 @@ class EpisodeVideo:
 
         frames: list[npt.ArrayLike] = list(self.frames)
         if not frames:
-            raise SimroadError("video: the episode produced no frames.")
+            raise InvalidParameterError("video: the episode produced no frames.")
         try:
             if self.path.suffix.lower() == ".gif":
                 imageio.mimsave(self.path, frames, duration=1.0 / self.fps, loop=0)
             else:
                 imageio.mimsave(self.path, frames, fps=self.fps, macro_block_size=1)
         except (OSError, ValueError, RuntimeError) as exc:
-            raise SimroadError(f"video: could not write {str(self.path)!r}: {exc}") from None
+            raise InvalidParameterError(f"video: could not write {str(self.path)!r}: {exc}") from None
         return self.path

@@ -21,10 +21,11 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_image, check_int_in_range
+from simroad.core.radiometry import GAMMA
+from simroad.core.validation import check_image, check_int_in_range
+from simroad.errors import InvalidParameterError
 from simroad.filters._kernels import LEVELS, response_forward, response_inverse, uint8_planes
 from simroad.filters._plane_kernels import area_quarter, clip_unit
-from simroad.noise.radiometry import GAMMA
 
 __all__ = [
     "FILTER_DTYPES",
@@ -77,7 +78,7 @@ def check_odd_size(name: str, value: object, low: int, high: int) -> int:
     """Validate an odd window side in pixels, in ``[low, high]``; return it as an int."""
     size = check_int_in_range(name, value, low, high)
     if size % 2 == 0:
-        raise SimroadError(f"{name}: expected an odd window size, got {size}. Use {size + 1}.")
+        raise InvalidParameterError(f"{name}: expected an odd window size, got {size}. Use {size + 1}.")
     return size
 
 
@@ -195,7 +196,7 @@ def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
 # -------------------------------------------- the camera's response, undone and redone
 # The forward model is simroad.camera's sensor: the response's shoulder
 # ``z = (1 + k) y / (1 + k y)`` on the linear signal ``y`` (``response_curve``), then the
-# display encoding ``z ** (1 / GAMMA)`` of simroad.noise.radiometry (``linear_to_srgb``).
+# display encoding ``z ** (1 / GAMMA)`` of simroad.core.radiometry (``linear_to_srgb``).
 # Filters that reason in linear light (glare, shadows) invert it here.
 
 

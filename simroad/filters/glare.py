@@ -20,7 +20,7 @@ import functools
 import cv2
 import numpy as np
 
-from simroad._validation import check_in_range, check_int_in_range
+from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,

@@ -13,7 +13,8 @@ import functools
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_array, check_image, check_in_range, check_int_in_range
+from simroad.core.validation import check_array, check_image, check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = ["box_mean", "guided_filter"]
 
@@ -54,7 +55,7 @@ def box_mean(x: np.ndarray, radius: int) -> np.ndarray:
     """
     x = check_array("x", x, dtype=("float32", "float64"), ndim=(2, 3))
     if x.ndim == 3 and x.shape[2] > _MAX_CHANNELS:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"x: expected at most {_MAX_CHANNELS} channels, got shape {x.shape}. Filter the channels in groups."
         )
     radius = check_int_in_range("radius", radius, 0, _MAX_RADIUS)
@@ -159,7 +160,7 @@ def guided_filter(guide: np.ndarray, src: np.ndarray, radius: int, eps: float, *
     guide = check_image("guide", guide, dtype="float32", channels=0)
     src = check_image("src", src, dtype="float32", channels=None)
     if src.shape[:2] != guide.shape:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"src: expected the height and width of guide {guide.shape}, got shape {src.shape}. "
             "Resize one of them so both cover the same pixels."
         )

@@ -67,7 +67,7 @@ import cv2
 import numpy as np
 from scipy.optimize import isotonic_regression
 
-from simroad._validation import check_in_range
+from simroad.core.validation import check_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,

@@ -37,7 +37,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_array, check_in_range, check_int_in_range
+from simroad.core.validation import check_array, check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 from simroad.filters._common import (
     FilterResult,
     Planes,
@@ -132,12 +133,12 @@ def specular_to_diffuse(image: np.ndarray, lambda_max: np.ndarray, *, achromatic
     image = check_filter_image("image", image)
     lam = check_array("lambda_max", lambda_max, dtype=("float32", "float64"), ndim=2)
     if lam.shape != image.shape[:2]:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"lambda_max: expected a float array of shape {image.shape[:2]}, got "
             f"{lam.dtype} {lam.shape}. Pass one chromaticity per pixel."
         )
     if lam.min() < 1.0 / 3.0 - 1e-6 or lam.max() > 1.0 + 1e-6:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"lambda_max: expected values in [1/3, 1] (a chromaticity maximum), got [{lam.min():g}, {lam.max():g}]."
         )
     tol = check_in_range("achromatic_tol", achromatic_tol, 0.0, 1.0)

@@ -32,7 +32,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
+from simroad.core.validation import check_in_range
+from simroad.errors import InvalidParameterError
 from simroad.filters._common import FilterResult, Planes, absent_on_preview, check_filter_image, from_planes, to_planes
 from simroad.filters._kernels import LEVELS, level_rows, row_runs
 
@@ -56,9 +57,9 @@ def _finite_pair(name: str, value: object) -> tuple[float, float]:
         a, b = value  # type: ignore[misc]
         pair = (float(a), float(b))  # type: ignore[has-type]
     except (TypeError, ValueError):
-        raise SimroadError(f"{name}: expected two numbers (log B/R, log G/R), got {value!r}.") from None
+        raise InvalidParameterError(f"{name}: expected two numbers (log B/R, log G/R), got {value!r}.") from None
     if not all(math.isfinite(x) and abs(x) <= _LIMIT for x in pair):
-        raise SimroadError(f"{name}: expected finite log-ratios within +-{_LIMIT}, got {value!r}.")
+        raise InvalidParameterError(f"{name}: expected finite log-ratios within +-{_LIMIT}, got {value!r}.")
     return pair
 
 
@@ -66,12 +67,12 @@ def _box(value: object) -> tuple[tuple[float, float], tuple[float, float]]:
     try:
         b, g = value  # type: ignore[misc]
     except (TypeError, ValueError):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"chromaticity: expected ((log B/R low, high), (log G/R low, high)), got {value!r}."
         ) from None
     box = (_finite_pair("chromaticity", b), _finite_pair("chromaticity", g))  # type: ignore[has-type]
     if any(lo > hi for lo, hi in box):
-        raise SimroadError(f"chromaticity: each (low, high) needs low <= high, got {value!r}.")
+        raise InvalidParameterError(f"chromaticity: each (low, high) needs low <= high, got {value!r}.")
     return box
 
 

@@ -28,7 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_image
+from simroad.core.names import NOISE_NAMES
+from simroad.core.validation import check_choice, check_image
+from simroad.errors import InvalidParameterError
 from simroad.filters._common import (
     FILTER_DTYPES,
     FilterResult,
@@ -45,7 +47,6 @@ from simroad.filters.illuminant import _colour_cast_planes, remove_colour_cast
 from simroad.filters.rain_snow import _rain_snow_planes, remove_rain_snow
 from simroad.filters.relight import _relight_planes, relight_shadows
 from simroad.filters.shadow import _shadows_planes, remove_shadows
-from simroad.noise import NOISE_NAMES
 
 __all__ = [
     "FILTERS",
@@ -115,11 +116,13 @@ class FilterStep:
     def __post_init__(self) -> None:
         if self.function not in _CORES:
             names = ", ".join(f.__name__ for f in _CORES)
-            raise SimroadError(f"function: expected one of the public filters ({names}), got {self.function!r}.")
+            raise InvalidParameterError(
+                f"function: expected one of the public filters ({names}), got {self.function!r}."
+            )
         defaults = _keyword_defaults(self.function)
         unknown = sorted(set(self.settings) - set(defaults))
         if unknown:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"settings: {self.function.__name__} has no keyword option {unknown}; "
                 f"expected some of {sorted(defaults)}."
             )
@@ -229,7 +232,9 @@ def check_filters(filters: object) -> tuple[str, ...]:
     try:
         names = list(filters)  # type: ignore[call-overload]
     except TypeError:
-        raise SimroadError(f"filters: expected a sequence of filter names from {FILTERS}, got {filters!r}.") from None
+        raise InvalidParameterError(
+            f"filters: expected a sequence of filter names from {FILTERS}, got {filters!r}."
+        ) from None
     for name in names:
         check_choice("filters", name, FILTERS)
     return tuple(f for f in FILTERS if f in names)
@@ -334,7 +339,7 @@ def parse_filters(spec: str | Sequence[str]) -> tuple[str, ...]:
     for n in names:
         check_choice("filters", n, FILTER_NAMES + ("none", "all") if len(names) == 1 else FILTER_NAMES)
         if n in out:
-            raise SimroadError(f"filters: {n!r} is listed twice in {spec!r}.")
+            raise InvalidParameterError(f"filters: {n!r} is listed twice in {spec!r}.")
         out.append(n)
     return tuple(f for f in FILTER_NAMES if f in out)
 
@@ -350,7 +355,7 @@ def format_filters(filters: Sequence[str]) -> str:
 def _name_list(filters: object) -> list[str]:
     """A sequence of filter names as a list; anything else is refused naming ``filters``."""
     if isinstance(filters, (str, bytes)) or not isinstance(filters, Sequence):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"filters: expected a sequence (list or tuple) of filter names from {FILTER_NAMES}, got "
             f"{type(filters).__name__} {filters!r}."
         )

@@ -64,8 +64,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._colour import hsi_intensity
-from simroad._validation import SimroadError, check_bool, check_in_range, check_int_in_range
+from simroad.core.colour import hsi_intensity
+from simroad.core.validation import check_bool, check_in_range, check_int_in_range
+from simroad.errors import InvalidParameterError
 from simroad.filters._common import (
     FilterResult,
     Planes,
@@ -185,7 +186,7 @@ def remove_rain_snow(
     achromatic = check_bool("achromatic", achromatic)
     protect = check_int_in_range("protect", protect, 0, 31)
     if achromatic and tolerance is None:
-        raise SimroadError("tolerance: the achromatic variant needs a tolerance (e.g. 0.04), got None.")
+        raise InvalidParameterError("tolerance: the achromatic variant needs a tolerance (e.g. 0.04), got None.")
     out, mask = _rain_snow_planes(
         to_planes(image), radius=radius, eps=eps, tolerance=tolerance, subsample=subsample,
         achromatic=achromatic, protect=protect,

@@ -34,8 +34,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._colour import hsi_intensity, hsi_saturation
-from simroad._validation import check_in_range, check_int_in_range
+from simroad.core.colour import hsi_intensity, hsi_saturation
+from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
     Planes,

@@ -1,20 +1,12 @@
-"""Scoring of episodes: road-mask metrics and driving-safety metrics.
+"""Scoring of episodes: road-mask metrics (paper eqs. 32-33, pooled and per frame).
 
-Mask metrics follow paper eqs. 32-33, pooled and per frame; safety metrics are
-computed from highway-env's state.
+The driving-safety metrics read highway-env's state and live in
+:mod:`simroad.metrics.safety`, imported on its own so that scoring masks loads no
+simulator.
 """
 
 from __future__ import annotations
 
 from simroad.metrics.mask import MaskScore, confusion, error_rates, rates_from_counts
-from simroad.metrics.safety import PENALTIES, SafetyScore, footprint_corners
 
-__all__ = [
-    "PENALTIES",
-    "MaskScore",
-    "SafetyScore",
-    "confusion",
-    "error_rates",
-    "footprint_corners",
-    "rates_from_counts",
-]
+__all__ = ["MaskScore", "confusion", "error_rates", "rates_from_counts"]

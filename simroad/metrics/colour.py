@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from simroad._validation import check_image, check_mask
+from simroad.core.validation import check_image, check_mask
 
 __all__ = ["GREY_S_MAX", "GREY_V_RANGE", "GreyCounts", "grey_counts", "grey_mask"]
 

@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_int_in_range, check_mask
+from simroad.core.validation import check_int_in_range, check_mask
+from simroad.errors import InvalidParameterError
 
 __all__ = ["MaskScore", "confusion", "error_rates", "rates_from_counts"]
 
@@ -138,7 +139,7 @@ class MaskScore:
     def merge(self, other: MaskScore) -> MaskScore:
         """A new score holding the frames of ``self`` followed by those of ``other``."""
         if not isinstance(other, MaskScore):
-            raise SimroadError(f"other: expected a MaskScore, got {type(other).__name__}.")
+            raise InvalidParameterError(f"other: expected a MaskScore, got {type(other).__name__}.")
         return MaskScore(
             self.tp + other.tp,
             self.fp + other.fp,

@@ -48,9 +48,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from highway_env.envs.common.action import ContinuousAction
 
-from simroad._validation import SimroadError, check_in_range
-from simroad.camera.lanes import lane_signed_distance, supports_vectorised
-from simroad.envs.friction import G
+from simroad.core.constants import GRAVITY_M_S2
+from simroad.core.lanes import lane_signed_distance, supports_vectorised
+from simroad.core.validation import check_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = ["PENALTIES", "SafetyScore", "footprint_corners"]
 
@@ -63,7 +64,9 @@ BRAKE_M_S2 = -float(ContinuousAction.ACCELERATION_RANGE[0])
 def footprint_corners(vehicle) -> np.ndarray:
     """World (x, y) of the 4 corners of a highway-env vehicle's footprint, (4, 2)."""
     if not all(hasattr(vehicle, a) for a in ("position", "heading", "LENGTH", "WIDTH")):
-        raise SimroadError(f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}.")
+        raise InvalidParameterError(
+            f"vehicle: expected a highway-env Vehicle (env.vehicle), got {type(vehicle).__name__}."
+        )
     h = float(vehicle.heading)
     fwd = np.array([math.cos(h), math.sin(h)])
     right = np.array([-math.sin(h), math.cos(h)])
@@ -151,7 +154,7 @@ class SafetyScore:
             gap, closing = front
             self.min_ttc_s = min(self.min_ttc_s, gap / closing if closing > 1e-6 else math.inf)
             mu = info.get("mu")
-            brake = BRAKE_M_S2 if mu is None else min(BRAKE_M_S2, float(mu) * G)
+            brake = BRAKE_M_S2 if mu is None else min(BRAKE_M_S2, float(mu) * GRAVITY_M_S2)
             margin = gap - max(0.0, float(vehicle.speed)) ** 2 / (2.0 * brake)
             self.min_stopping_margin_m = min(self.min_stopping_margin_m, margin)
 

@@ -37,9 +37,9 @@ See ``docs/weather.md`` for the physics and the references.
 
 from __future__ import annotations
 
+from simroad.noise._windscreen_params import WIPER_MODES, WindscreenParams
 from simroad.noise.compose import (
     MODELS,
-    NOISE_NAMES,
     NoiseParams,
     Weather,
     apply_noise,
@@ -52,17 +52,13 @@ from simroad.noise.context import NoiseContext, flat_ground_camera
 from simroad.noise.fog import FogModel, FogParams
 from simroad.noise.glare import GlareModel, GlareParams
 from simroad.noise.model import STAGES, Limit, NoiseModel, NoiseResult, Params
-from simroad.noise.radiometry import GAMMA, MASK_THRESHOLD, change_mask, linear_to_srgb, srgb_to_linear
 from simroad.noise.rain import RainModel, RainParams
 from simroad.noise.shadow import ShadowModel, ShadowParams
 from simroad.noise.snow import SnowModel, SnowParams
-from simroad.noise.windscreen import WIPER_MODES, WindscreenModel, WindscreenParams
+from simroad.noise.windscreen import WindscreenModel
 
 __all__ = [
-    "GAMMA",
-    "MASK_THRESHOLD",
     "MODELS",
-    "NOISE_NAMES",
     "STAGES",
     "WIPER_MODES",
     "FogModel",
@@ -85,12 +81,9 @@ __all__ = [
     "WindscreenModel",
     "WindscreenParams",
     "apply_noise",
-    "change_mask",
     "check_noise_params",
     "flat_ground_camera",
-    "linear_to_srgb",
     "make_weather",
     "parse_noise",
-    "srgb_to_linear",
     "windscreen_model",
 ]

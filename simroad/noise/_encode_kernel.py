@@ -1,4 +1,4 @@
-"""Encoding the few pixels a stage changed, exactly as :func:`~simroad.noise.radiometry.linear_to_srgb` does.
+"""Encoding the few pixels a stage changed, exactly as :func:`~simroad.core.radiometry.linear_to_srgb` does.
 
 The runner encodes the whole linear frame after every model (a few hundred microseconds
 at 320x180). A stage that changes only some pixels (the drops on the windscreen: a
@@ -21,6 +21,8 @@ from functools import lru_cache
 import numpy as np
 from numba import njit
 
+from simroad.core.radiometry import linear_to_srgb
+
 __all__ = ["encode_tables", "encode_touched"]
 
 #: Buckets below 2.0 (bit pattern 0x40000000); every value from 2.0 up encodes to 255.
@@ -32,7 +34,6 @@ def encode_tables() -> tuple[np.ndarray, np.ndarray]:
     """``(level, step)``: per bucket of float32 bit patterns, the uint8 level of its first
     value under ``linear_to_srgb``, and the first bit pattern (int64) in it that encodes one
     level higher (the bucket's end when none does)."""
-    from simroad.noise.radiometry import linear_to_srgb
 
     def enc(bits: np.ndarray) -> np.ndarray:
         x = bits.astype(np.uint32).view(np.float32)
@@ -99,7 +100,7 @@ def encode_touched(
     previous : ndarray uint8 (H, W, 3)
         ``linear_to_srgb`` of the frame before the change.
     threshold : int
-        Grey levels (:func:`~simroad.noise.radiometry.change_mask`'s).
+        Grey levels (:func:`~simroad.core.radiometry.change_mask`'s).
 
     Returns
     -------

@@ -17,9 +17,6 @@ from simroad.noise._geometry import ViewGeometry, view_geometry
 from simroad.noise._particle_field import (
     ParticleField,
     advance,
-    particle_velocity,
-    relative_velocity,
-    sample_field,
     wind_in_ego,
 )
 from simroad.noise._streaks import blend, splat_streaks, streaks
@@ -28,16 +25,7 @@ from simroad.noise.model import Limit, NoiseModel
 
 __all__ = [
     "PARTICLE_LIMITS",
-    "ParticleField",
     "ParticleModel",
-    "advance",
-    "blend",
-    "particle_velocity",
-    "relative_velocity",
-    "sample_field",
-    "splat_streaks",
-    "streaks",
-    "wind_in_ego",
 ]
 
 PARTICLE_LIMITS: Mapping[str, Limit] = MappingProxyType(

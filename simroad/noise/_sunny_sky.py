@@ -20,9 +20,9 @@ import math
 import cv2
 import numpy as np
 
+from simroad.camera.codes import SKY
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.sky import camera_directions, sky_radiance
-from simroad.camera.world import SKY
 from simroad.noise.context import FrameState
 
 __all__ = ["CLEAR_SKY_RATIO", "clear_sky", "clear_sky_panorama"]

@@ -14,7 +14,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range
+from simroad.core.validation import check_choice, check_in_range
+from simroad.errors import InvalidParameterError, SimroadError
 from simroad.noise._glass import Glass
 from simroad.noise.model import Limit, Params
 from simroad.noise.rain import D_RANGE_MM as RAIN_D_MM
@@ -178,7 +179,7 @@ def _check_period(value: Any, stroke_s: float) -> float | str | None:
     try:
         return check_in_range("wiper_period_s", value, low, 120.0, unit="s")
     except SimroadError as exc:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{exc} A wipe cycle is two strokes of wiper_stroke_s={stroke_s:g} s, so the period is at least "
             f"{low:g} s; or give a mode ({', '.join(map(repr, WIPER_MODES))}) or None for off."
         ) from None

@@ -31,8 +31,11 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_choice, check_in_range, normalize_rng
 from simroad.camera.geometry import PinholeCamera
+from simroad.core.names import NOISE_NAMES
+from simroad.core.validation import check_choice, check_in_range, normalize_rng
+from simroad.errors import InvalidParameterError
+from simroad.noise._windscreen_params import WindscreenParams
 from simroad.noise.context import NoiseContext
 from simroad.noise.fog import FogModel
 from simroad.noise.glare import GlareModel
@@ -40,11 +43,10 @@ from simroad.noise.model import NoiseModel, NoiseResult, Params, run_models
 from simroad.noise.rain import RainModel
 from simroad.noise.shadow import ShadowModel
 from simroad.noise.snow import SnowModel
-from simroad.noise.windscreen import WindscreenModel, WindscreenParams
+from simroad.noise.windscreen import WindscreenModel
 
 __all__ = [
     "MODELS",
-    "NOISE_NAMES",
     "NoiseParams",
     "Weather",
     "apply_noise",
@@ -54,7 +56,6 @@ __all__ = [
     "windscreen_model",
 ]
 
-NOISE_NAMES = ("clear", "rain", "snow", "shadow", "glare", "fog")
 MODELS: dict[str, type[NoiseModel]] = {
     "rain": RainModel,
     "snow": SnowModel,
@@ -76,20 +77,22 @@ def parse_noise(spec: str) -> tuple[str, ...]:
     ()
     """
     if not isinstance(spec, str):
-        raise SimroadError(f"noise: expected a string such as 'rain' or 'rain+glare', got {type(spec).__name__}.")
+        raise InvalidParameterError(
+            f"noise: expected a string such as 'rain' or 'rain+glare', got {type(spec).__name__}."
+        )
     parts = [p.strip().lower() for p in spec.split("+")]
     if any(p == "" for p in parts):
-        raise SimroadError(f"noise: empty name in {spec!r}; join names with a single '+', e.g. 'rain+glare'.")
+        raise InvalidParameterError(f"noise: empty name in {spec!r}; join names with a single '+', e.g. 'rain+glare'.")
     for p in parts:
         check_choice("noise", p, NOISE_NAMES)
     dup = sorted({p for p in parts if parts.count(p) > 1})
     if dup:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"noise: {', '.join(map(repr, dup))} given more than once in {spec!r}; name each noise once."
         )
     if "clear" in parts:
         if len(parts) > 1:
-            raise SimroadError(f"noise: 'clear' cannot be combined with other noises, got {spec!r}.")
+            raise InvalidParameterError(f"noise: 'clear' cannot be combined with other noises, got {spec!r}.")
         return ()
     return tuple(n for n in NOISE_NAMES if n in parts)
 
@@ -130,14 +133,14 @@ class Weather:
         windscreen: bool | WindscreenParams = True,
     ) -> None:
         if isinstance(names, str) or not isinstance(names, (tuple, list)):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"names: expected a tuple of noise names such as ('rain', 'glare') (or use make_weather('rain+glare')), "
                 f"got {type(names).__name__} {names!r}."
             )
         self.names = tuple(check_choice("names", n, tuple(MODELS)) for n in names)
         dup = sorted({n for n in self.names if self.names.count(n) > 1})
         if dup:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"names: {', '.join(map(repr, dup))} given more than once in {names!r}; name each noise once."
             )
         self.severity = check_in_range("severity", severity, 0.0, 1.0)
@@ -183,7 +186,7 @@ class Weather:
         noisy : ndarray, same shape and dtype as ``image``
         masks : dict str -> ndarray bool (H, W)
             Per active noise, the pixels it changed by at least
-            :data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels on any channel.
+            :data:`~simroad.core.radiometry.MASK_THRESHOLD` grey levels on any channel.
         """
         return run_models(list(self.models.values()), image, ctx)
 
@@ -213,14 +216,14 @@ def check_noise_params(params: Any, names: tuple[str, ...] | None = None) -> dic
     if params is None:
         return {}
     if not isinstance(params, Mapping):
-        raise SimroadError(f"params: expected a dict noise name -> Params, got {type(params).__name__}.")
+        raise InvalidParameterError(f"params: expected a dict noise name -> Params, got {type(params).__name__}.")
     valid = tuple(MODELS) if names is None else names
     out = {}
     for key, value in params.items():
         check_choice("params key", key, valid or ("(none: the weather is 'clear')",))
         want = MODELS[key].params_type
         if not isinstance(value, want):
-            raise SimroadError(f"params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")
+            raise InvalidParameterError(f"params[{key!r}]: expected a {want.__name__}, got {type(value).__name__}.")
         out[key] = value
     return out
 
@@ -329,7 +332,7 @@ def windscreen_model(models: Mapping[str, NoiseModel], windscreen: Any) -> Winds
     """
     if not isinstance(windscreen, WindscreenParams):
         if not isinstance(windscreen, (bool, np.bool_)):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"windscreen: expected True, False or a WindscreenParams, got {type(windscreen).__name__} {windscreen!r}."
             )
         if not windscreen:

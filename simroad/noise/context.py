@@ -16,11 +16,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_finite_number, check_in_range
+from simroad.camera.codes import IS_GROUND, SKY
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.render import VehicleBox
-from simroad.camera.world import IS_GROUND, SKY
+from simroad.core.validation import check_finite_number, check_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = ["FrameState", "NoiseContext", "flat_ground_camera", "resolve_frame"]
 
@@ -39,7 +40,7 @@ def flat_ground_camera(height: int, width: int) -> PinholeCamera:
     limited to the camera's 16..1280 x 16..720 pixels; resize larger photographs.
     """
     if not (16 <= width <= 1280 and 16 <= height <= 720):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"image: the flat-ground default camera supports 16..1280 x 16..720 pixels "
             f"(width x height), got {width}x{height}. Resize the image first, or pass "
             f"camera= and depth= for it."
@@ -100,7 +101,7 @@ class NoiseContext:
 
     def __post_init__(self) -> None:
         if self.camera is not None and not isinstance(self.camera, PinholeCamera):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"camera: expected a simroad.camera.PinholeCamera or None, got {type(self.camera).__name__}."
             )
         if self.depth is not None:
@@ -108,14 +109,14 @@ class NoiseContext:
         if self.material is not None:
             _check_plane("material", self.material, kinds="u")
         if isinstance(self.vehicles, (str, bytes)) or not isinstance(self.vehicles, Iterable):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"vehicles: expected a sequence of VehicleBox (the renderer's Frame.vehicles), "
                 f"got {type(self.vehicles).__name__}."
             )
         vehicles = tuple(self.vehicles)
         for k, v in enumerate(vehicles):
             if not isinstance(v, VehicleBox):
-                raise SimroadError(f"vehicles[{k}]: expected a VehicleBox, got {type(v).__name__}.")
+                raise InvalidParameterError(f"vehicles[{k}]: expected a VehicleBox, got {type(v).__name__}.")
         object.__setattr__(self, "vehicles", vehicles)
         object.__setattr__(self, "ego_speed", check_in_range("ego_speed", self.ego_speed, -100, 100, unit="m/s"))
         object.__setattr__(
@@ -124,7 +125,7 @@ class NoiseContext:
         object.__setattr__(self, "dt", check_in_range("dt", self.dt, 0.0, 1.0, unit="s", low_inclusive=False))
         t = check_finite_number("time_s", self.time_s)
         if t < 0:
-            raise SimroadError(f"time_s: expected a time >= 0 s, got {t:g}.")
+            raise InvalidParameterError(f"time_s: expected a time >= 0 s, got {t:g}.")
         object.__setattr__(self, "time_s", t)
         object.__setattr__(self, "motion_m", check_in_range("motion_m", self.motion_m, 0.0, 100.0, unit="m"))
         _check_faces(self.face_id, self.faces)
@@ -133,16 +134,16 @@ class NoiseContext:
 def _check_faces(face_id: Any, faces: Any) -> None:
     if (face_id is None) != (faces is None):
         given, missing = ("face_id", "faces") if faces is None else ("faces", "face_id")
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{missing}: {given} was given without {missing}; pass both (the renderer's Frame has them) or neither."
         )
     if faces is None:
         return
     if not isinstance(faces, Mesh):
-        raise SimroadError(f"faces: expected a simroad.camera.mesh.Mesh, got {type(faces).__name__}.")
+        raise InvalidParameterError(f"faces: expected a simroad.camera.mesh.Mesh, got {type(faces).__name__}.")
     _check_plane("face_id", face_id, kinds="i")
     if face_id.size and (int(face_id.max()) >= len(faces) or int(face_id.min()) < -1):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"face_id: expected indices in -1..{len(faces) - 1} (the faces of the mesh), "
             f"got values in {int(face_id.min())}..{int(face_id.max())}."
         )
@@ -156,11 +157,11 @@ def _check_plane(name: str, arr: Any, *, kinds: str) -> None:
             "i": "int32 (H, W) array of face indices",
         }[kinds]
         got = f"{arr.dtype} array of shape {arr.shape}" if isinstance(arr, np.ndarray) else type(arr).__name__
-        raise SimroadError(f"{name}: expected a {what}, got {got}.")
+        raise InvalidParameterError(f"{name}: expected a {what}, got {got}.")
     if kinds == "f" and not (arr >= 0).all():  # one pass: NaN and negative distances both fail it
         if np.isnan(arr).any():
-            raise SimroadError(f"{name}: contains NaN; use inf for pixels that see no surface.")
-        raise SimroadError(
+            raise InvalidParameterError(f"{name}: contains NaN; use inf for pixels that see no surface.")
+        raise InvalidParameterError(
             f"{name}: contains negative distances (down to {float(arr.min()):g} m); expected distances >= 0 m, "
             "inf for pixels that see no surface."
         )
@@ -258,14 +259,14 @@ def resolve_frame(
     h, w = image.shape[:2]
     cam = ctx.camera if ctx.camera is not None else flat_ground_camera(h, w)
     if (cam.config.height, cam.config.width) != (h, w):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"camera: its image size {cam.config.width}x{cam.config.height} does not match the "
             f"image's {w}x{h} (width x height). Pass the camera that rendered the frame."
         )
     depth = cam.depth if ctx.depth is None else ctx.depth
     for name, arr in (("depth", depth), ("material", ctx.material), ("face_id", ctx.face_id)):
         if arr is not None and arr.shape != (h, w):
-            raise SimroadError(f"{name}: expected shape {(h, w)} to match the image, got {arr.shape}.")
+            raise InvalidParameterError(f"{name}: expected shape {(h, w)} to match the image, got {arr.shape}.")
     depth = depth.astype(np.float32, copy=False)
     material = ctx.material
     if material is None:

@@ -28,7 +28,7 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import check_in_range
+from simroad.core.validation import check_in_range
 from simroad.noise._arrays import fast_exp, gray3, rgb_scalar
 from simroad.noise.context import FrameState
 from simroad.noise.model import Limit, NoiseModel, Params

@@ -50,8 +50,8 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import check_in_range
-from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
+from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
+from simroad.core.validation import check_in_range
 from simroad.noise._arrays import fast_exp, material_weights
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, sun_direction_ego, view_geometry
 from simroad.noise._sunny_sky import CLEAR_SKY_RATIO, clear_sky

@@ -10,7 +10,7 @@ wiper), and the optics (veiling glare, bloom).
 Every public way to apply weather returns a :data:`NoiseResult`, ``(noisy, masks)``:
 the spoiled frame (same shape and dtype as the input) and a dict noise name -> bool
 (H, W) mask of the pixels that noise changed by at least
-:data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels (the sky turning clear
+:data:`~simroad.core.radiometry.MASK_THRESHOLD` grey levels (the sky turning clear
 when a model brings out the sun is a change of weather, not noise: it stays out of
 the masks).
 """
@@ -23,8 +23,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from simroad._validation import (
-    SimroadError,
+from simroad.core.radiometry import MASK_THRESHOLD, as_uint8, change_mask, linear_to_srgb, srgb_to_linear
+from simroad.core.validation import (
     check_bool,
     check_finite_number,
     check_image,
@@ -32,9 +32,9 @@ from simroad._validation import (
     check_int_in_range,
     normalize_rng,
 )
+from simroad.errors import InvalidParameterError, ResetNeededError
 from simroad.noise._encode_kernel import encode_touched
 from simroad.noise.context import FrameState, NoiseContext, resolve_frame
-from simroad.noise.radiometry import MASK_THRESHOLD, as_uint8, change_mask, linear_to_srgb, srgb_to_linear
 
 __all__ = ["STAGES", "Limit", "NoiseModel", "NoiseResult", "Params", "run_models"]
 
@@ -78,7 +78,7 @@ class Limit:
         low = check_finite_number("low", self.low)
         high = check_finite_number("high", self.high)
         if low > high:
-            raise SimroadError(f"low: expected at most high={high:g}, got {low:g}.")
+            raise InvalidParameterError(f"low: expected at most high={high:g}, got {low:g}.")
         if self.length is not None:
             check_int_in_range("length", self.length, 1, 1000)
 
@@ -89,13 +89,13 @@ class Limit:
         if self.length is None:
             return self._check_one(name, value)
         if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, Iterable):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}: expected {self.length} values (a tuple such as {(1.0,) * self.length}), "
                 f"got {type(value).__name__} {value!r}."
             )
         values = tuple(value)
         if len(values) != self.length:
-            raise SimroadError(f"{name}: expected {self.length} values, got {len(values)}.")
+            raise InvalidParameterError(f"{name}: expected {self.length} values, got {len(values)}.")
         return tuple(self._check_one(f"{name}[{k}]", v) for k, v in enumerate(values))
 
     def _check_one(self, name: str, value: Any) -> float | int:
@@ -180,7 +180,7 @@ class NoiseModel:
 
     def __init__(self, params: Params) -> None:
         if not isinstance(params, self.params_type):
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"params: the {self.name!r} model takes {self.params_type.__name__}, got {type(params).__name__}."
             )
         self.params: Any = params
@@ -216,7 +216,7 @@ class NoiseModel:
 
     def _require_reset(self) -> np.random.Generator:
         if self._rng is None:
-            raise SimroadError(f"{self.name}: call reset(rng) before apply(...).")
+            raise ResetNeededError(f"{self.name}: call reset(rng) before apply(...).")
         return self._rng
 
     @property
@@ -235,7 +235,7 @@ class NoiseModel:
         noisy : ndarray, same shape and dtype as ``image``
         masks : dict str -> ndarray bool (H, W)
             ``{self.name: mask}``, the pixels changed by at least
-            :data:`~simroad.noise.radiometry.MASK_THRESHOLD` grey levels, as
+            :data:`~simroad.core.radiometry.MASK_THRESHOLD` grey levels, as
             :meth:`simroad.noise.Weather.apply` returns them.
         """
         return run_models([self], image, ctx)
@@ -254,7 +254,7 @@ def run_models(models: Sequence[NoiseModel], image: np.ndarray, ctx: NoiseContex
     if ctx is None:
         ctx = NoiseContext()
     elif not isinstance(ctx, NoiseContext):
-        raise SimroadError(f"ctx: expected a NoiseContext, got {type(ctx).__name__}.")
+        raise InvalidParameterError(f"ctx: expected a NoiseContext, got {type(ctx).__name__}.")
     h, w = image.shape[:2]
     masks = {m.name: np.zeros((h, w), dtype=bool) for m in models}
     active = [m for m in models if not m.is_identity]

@@ -63,9 +63,10 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import check_choice, check_in_range
-from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
+from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER
+from simroad.core.validation import check_choice, check_in_range
 from simroad.noise import _particles as pt
+from simroad.noise._particle_field import ParticleField, sample_field
 from simroad.noise._arrays import gray3, material_weights
 from simroad.noise._geometry import ViewGeometry, view_geometry
 from simroad.noise.context import FrameState
@@ -292,12 +293,12 @@ class RainModel(pt.ParticleModel):
         if beta > 0.0:
             koschmieder(state.lin, state.depth, beta, p.airlight, sky_path_m=SKY_PATH_M)
 
-    def _sample(self, geom) -> pt.ParticleField:
+    def _sample(self, geom) -> ParticleField:
         p = self.params
         edges = np.linspace(*D_RANGE_MM, 53)
         lam = marshall_palmer_slope(p.rate_mm_h)
         dens = MP_N0 / lam * (np.exp(-lam * edges[:-1]) - np.exp(-lam * edges[1:]))
-        return pt.sample_field(
+        return sample_field(
             self._require_reset(),
             geom,
             diameter_edges_mm=edges,

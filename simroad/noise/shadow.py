@@ -70,8 +70,9 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
 from simroad.camera.lighting import face_irradiance
+from simroad.core.validation import check_in_range
+from simroad.errors import InvalidParameterError
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, ego_to_world, view_geometry
 from simroad.noise._occluders import Shadows, mesh_shadows, prism_shadows
 from simroad.noise._sunny_sky import CLEAR_SKY_RATIO, clear_sky
@@ -303,7 +304,9 @@ class ShadowModel(NoiseModel):
     def illumination(self, state: FrameState) -> None:
         cover = self._coverage
         if cover is None:
-            raise SimroadError("ShadowModel.illumination() ran before prepare(); run the model through apply().")
+            raise InvalidParameterError(
+                "ShadowModel.illumination() ran before prepare(); run the model through apply()."
+            )
         r = state.ground_rows
         t_sun = math.exp(-state.sun_optical_depth / math.sin(self.sun[1]))
         # The sun is out: the sky clears with it (full at today's clear-day ratio).

@@ -52,9 +52,10 @@ from typing import ClassVar
 import cv2
 import numpy as np
 
-from simroad._validation import check_in_range
-from simroad.camera.world import ASPHALT, MARKING, ROADSIDE, SHOULDER
+from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER
+from simroad.core.validation import check_in_range
 from simroad.noise import _particles as pt
+from simroad.noise._particle_field import ParticleField, sample_field
 from simroad.noise._arrays import gray3, material_weights, rgb_scalar, smoothstep
 from simroad.noise._geometry import ego_to_world, view_geometry
 from simroad.noise.context import FrameState
@@ -267,10 +268,10 @@ class SnowModel(pt.ParticleModel):
         if beta > 0.0:
             koschmieder(state.lin, state.depth, beta, self.params.airlight)
 
-    def _sample(self, geom) -> pt.ParticleField:
+    def _sample(self, geom) -> ParticleField:
         p = self.params
         edges, dens = _bins(p.flake_density_m3)
-        return pt.sample_field(
+        return sample_field(
             self._require_reset(),
             geom,
             diameter_edges_mm=edges,

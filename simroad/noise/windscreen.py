@@ -92,15 +92,14 @@ from typing import Any
 
 import numpy as np
 
-from simroad._validation import SimroadError, check_in_range
+from simroad.core.validation import check_in_range
+from simroad.errors import InvalidParameterError
 from simroad.noise._drops import DropField, SpriteBank, draw_drops
 from simroad.noise._drops_kernel import COVERED, advance_drops
-from simroad.noise._glass import Glass, GlassView, contact_radius, defocus_diameter_m, glass_view
+from simroad.noise._glass import Glass, GlassView, contact_radius, glass_view
 from simroad.noise._windscreen_params import (
-    WIPER_MODES,
     WindscreenParams,
     _sources,
-    collection_rate,
     slide_velocity,
 )
 from simroad.noise._wiper import blade_angle, blade_coverage, swept_interval
@@ -109,12 +108,7 @@ from simroad.noise.model import NoiseModel
 from simroad.noise.rain import RainParams
 
 __all__ = [
-    "WIPER_MODES",
     "WindscreenModel",
-    "WindscreenParams",
-    "collection_rate",
-    "defocus_diameter_m",
-    "slide_velocity",
 ]
 
 #: Sprite banks by camera, glass and contact angle, shared by every episode.
@@ -229,7 +223,7 @@ class WindscreenModel(NoiseModel):
         p = self.params
         pitch = state.camera.config.pitch_deg
         if p.glass_tilt_deg + pitch >= 89.0:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"glass_tilt_deg: {p.glass_tilt_deg:g} degrees with the camera's pitch of {pitch:g} degrees puts the "
                 "glass along the optical axis; expected a tilt below 89 degrees minus the pitch."
             )

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad.camera.world import IS_GROUND
+from simroad.camera.codes import IS_GROUND
 from simroad.envs import RoadCamEnv
 from simroad.experiments.rollout import autopilot_env_action
 

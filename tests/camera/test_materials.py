@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera.materials import ALBEDO, draw_albedo
+from simroad.errors import SimroadError
 
 
 def test_every_range_is_ordered_physical_and_sourced():

@@ -12,12 +12,13 @@ import pytest
 from highway_env.road.lane import LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 
-from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, SensorParams, WorldRaster
 from simroad.camera._blur_kernel import _plan_depth, _plan_flat, decode, radial_blur, radial_blur_depth
 from simroad.camera._ground_blur import RowBlur, _tables, blur_start_row, box_blur_texture, row_blur_px, segment_kernel
-from simroad.camera.sensor import apply_sensor, inv_cos_bearing, motion_blur_scale, near_edge_maps
-from simroad.noise.radiometry import srgb_to_linear
+from simroad.camera._sensor_ops import inv_cos_bearing, motion_blur_scale, near_edge_maps
+from simroad.camera.sensor import apply_sensor
+from simroad.core.radiometry import srgb_to_linear
+from simroad.errors import SimroadError
 
 
 def _renderer(size=(320, 180), seed=3) -> CameraRenderer:

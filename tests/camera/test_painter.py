@@ -10,9 +10,9 @@ import pytest
 from simroad.camera import CameraConfig, PinholeCamera
 from simroad.camera._painter import MeshPainter
 from simroad.camera._raster import mesh_data
+from simroad.camera.codes import BUILDING, OVERPASS, POLE, VEGETATION, WALL
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
-from simroad.camera.world import BUILDING, OVERPASS, POLE, VEGETATION, WALL
 
 GREY = (0.3, 0.3, 0.3)
 

@@ -6,10 +6,11 @@ import cv2
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera.materials import ALBEDO
-from simroad.camera.palette import PROFILES, ROADSIDE_KINDS, SHOULDER_KINDS, draw_palette
+from simroad.camera.palette import ROADSIDE_KINDS, SHOULDER_KINDS, draw_palette
 from simroad.camera.textures import ground_textures, periodic_noise, wear_factor
+from simroad.core.names import PROFILES
+from simroad.errors import SimroadError
 
 
 def _grey(rgb: np.ndarray) -> np.ndarray:

@@ -7,9 +7,9 @@ from highway_env.road.lane import LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 
 from simroad.camera import CameraConfig, CameraRenderer, Frame, PinholeCamera, VehicleBox, WorldRaster
+from simroad.camera.codes import BUILDING, IS_ROAD
 from simroad.camera.mesh import Mesh
 from simroad.camera.vehicles import box_mesh
-from simroad.camera.world import BUILDING, IS_ROAD
 from simroad.envs import RoadCamEnv
 from simroad.experiments.rollout import autopilot_env_action
 

@@ -8,10 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
-from simroad.camera import world as W
+from simroad.camera import codes as W
 from simroad.camera.scenery import HIGH_M, Scenery
 from simroad.envs import RoadCamEnv
+from simroad.errors import SimroadError
 
 SCENERY_CODES = {W.VEGETATION, W.POLE, W.SIGN, W.BUILDING, W.WALL, W.GUARDRAIL, W.OVERPASS}
 

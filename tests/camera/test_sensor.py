@@ -8,11 +8,12 @@ import math
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera import CameraConfig, PinholeCamera, Sensor, SensorParams
-from simroad.camera.sensor import NoiseTile, apply_sensor, motion_blur_scale, radial_motion_blur
+from simroad.camera._sensor_ops import NoiseTile, motion_blur_scale, radial_motion_blur
+from simroad.camera.sensor import apply_sensor
+from simroad.core.radiometry import linear_to_srgb, srgb_to_linear
 from simroad.envs import RoadCamConfig, RoadCamEnv
-from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear
+from simroad.errors import SimroadError
 
 CAM = PinholeCamera(CameraConfig(width=64, height=48, hfov_deg=90.0, pitch_deg=0.0))
 OFF = SensorParams.none()

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera import PinholeCamera
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.lighting import NOMINAL_EXPOSURE
@@ -21,6 +20,7 @@ from simroad.camera.sky import (
     sky_image,
     sky_radiance,
 )
+from simroad.errors import SimroadError
 
 
 def _dir(azimuth_deg: float, elevation_deg: float) -> np.ndarray:

@@ -10,9 +10,9 @@ import pytest
 from highway_env.road.lane import LineType, PolyLaneFixedWidth, SineLane, StraightLane
 from highway_env.road.road import RoadNetwork
 
-from simroad._validation import SimroadError
 from simroad.camera import MARKING, ROADSIDE, SHOULDER, WorldRaster
-from simroad.camera.world import IS_ROAD
+from simroad.camera.codes import IS_ROAD
+from simroad.errors import SimroadError
 
 
 def _straight_world(rng, line_types=(LineType.CONTINUOUS, LineType.STRIPED)):
@@ -137,7 +137,7 @@ def _urban_world(rng, **kwargs):
 
 
 def test_urban_cross_section_is_road_kerb_sidewalk_roadside(rng):
-    from simroad.camera.world import ASPHALT, KERB, SIDEWALK
+    from simroad.camera.codes import ASPHALT, KERB, SIDEWALK
 
     w, p = _urban_world(rng)
     win = w.window(20.0, -12.0, 40.0, 12.0)

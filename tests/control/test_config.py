@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import warnings
 
 import numpy as np
 import pytest
@@ -77,21 +76,6 @@ def test_for_scenario_takes_lane_width_and_cruise_speed_from_the_spec(name):
     assert ControllerConfig.for_scenario(spec, max_decel_m_s2=6.0).max_decel_m_s2 == 6.0
     with pytest.raises(SimroadError, match="scenario"):
         ControllerConfig.for_scenario(name)  # type: ignore[arg-type]
-
-
-def test_deprecated_scenario_control_is_computed_from_the_specs():
-    import simroad.control as control
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        table = control.SCENARIO_CONTROL
-    assert any(issubclass(w.category, DeprecationWarning) for w in caught)
-    assert table == {
-        "racetrack": {"lane_width_m": 5.0, "target_speed_m_s": 10.0},
-        "highway": {"lane_width_m": 4.0, "target_speed_m_s": 25.0},
-        "winding": {"lane_width_m": 3.5, "target_speed_m_s": 15.0},
-        "town": {"lane_width_m": 3.25, "target_speed_m_s": 12.0},
-    }
 
 
 def test_parking_strips_become_edge_steps():

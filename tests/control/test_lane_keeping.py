@@ -10,9 +10,10 @@ import pytest
 
 from simroad import SimroadError
 from simroad.control import autopilot_action
+from simroad.control.config import ControllerConfig
 from simroad.control.drivers import make_driver
 from simroad.control.lane_estimate import _occlusion_free, _pick_run
-from simroad.control.lane_keeping import ControllerConfig, MaskLaneKeeper, _grip_speed
+from simroad.control.lane_keeping import MaskLaneKeeper, _grip_speed
 from simroad.envs import RoadCamEnv, get_scenario
 
 

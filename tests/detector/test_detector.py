@@ -12,8 +12,9 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from simroad import SimroadError
-from simroad.detector import FILTERS, RoadDetector, default_model_path, train_default
+from simroad.detector import RoadDetector, default_model_path, train_default
 from simroad.envs import SCENARIO_NAMES
+from simroad.filters.pipeline import FILTERS
 from simroad.metrics import MaskScore
 
 

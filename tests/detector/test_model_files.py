@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.detector import RoadDetector, check_model_destination, default_model_path
 from simroad.detector.persistence import FORMAT_VERSION, PARAM_NAMES, array_checksum, read_arrays
+from simroad.errors import SimroadError
 
 IMG = np.random.default_rng(5).integers(0, 256, (40, 48, 3), dtype=np.uint8)
 ERROR = r"^path: '.*' is not a simroad road-detector model, or a damaged one: "

@@ -8,7 +8,6 @@ import textwrap
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.detector import registry
 from simroad.detector.registry import (
     FilteredDetector,
@@ -21,6 +20,7 @@ from simroad.detector.registry import (
     register,
     resolve_factory,
 )
+from simroad.errors import SimroadError
 from simroad.filters import apply_filters
 
 

@@ -6,7 +6,6 @@ import math
 
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.envs import RoadCamConfig
 from simroad.envs.friction import (
     SURFACES,
@@ -18,6 +17,7 @@ from simroad.envs.friction import (
     water_film_depth_mm,
     wet_mu,
 )
+from simroad.errors import SimroadError
 from simroad.noise import RainParams, SnowParams, make_weather
 
 

@@ -145,7 +145,7 @@ def test_bad_actions_are_clear_errors():
 
 
 def test_config_and_keywords_together_are_refused():
-    config = simroad.RoadCamConfig(scenario="highway")
+    config = simroad.envs.RoadCamConfig(scenario="highway")
     with pytest.raises(SimroadError, match=r"config.*noise"):
         RoadCamEnv(config=config, noise="rain")
     with pytest.raises(SimroadError, match="RoadCamConfig"):

@@ -6,10 +6,10 @@ import math
 
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera.mesh import Mesh
 from simroad.camera.scenery import Scenery
 from simroad.envs import RoadCamEnv
+from simroad.errors import SimroadError
 
 
 @pytest.mark.parametrize("value", [-0.1, 5.5, float("nan"), "dense"])

@@ -11,11 +11,12 @@ from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 from highway_env.vehicle.kinematics import Vehicle
 
-from simroad._validation import SimroadError
 from simroad.control.autopilot import STEERING_RANGE_RAD, autopilot_action
+from simroad.core.constants import GRAVITY_M_S2 as G
 from simroad.envs import RoadCamEnv
-from simroad.envs.friction import G, RoadGrip, cornering_speed_m_s, stopping_distance_m
+from simroad.envs.friction import RoadGrip, cornering_speed_m_s, stopping_distance_m
 from simroad.envs.tyres import GripIDMVehicle, GripVehicle, attach_grip, grip_class
+from simroad.errors import SimroadError
 
 DT = 1.0 / 15.0  # highway-env's physics step in every scenario
 MUS = (0.1, 0.25, 0.3, 0.5, 0.8)

@@ -8,7 +8,8 @@ import os
 import time
 
 from simroad.experiments.ablate import run_cell
-from simroad.experiments.episode import RECORD_KEYS, format_filters
+from simroad.experiments.episode import RECORD_KEYS
+from simroad.filters.pipeline import format_filters
 
 #: Seconds each stub episode sleeps, from the environment variable ``SIMROAD_STUB_DELAY_S``
 #: (sweep workers start from a fork server and import this module afresh: set the variable
@@ -43,7 +44,8 @@ def contender(out: str, grid, start, conn) -> None:
     import traceback
 
     from simroad import SimroadError
-    from simroad.experiments.ablate import DirectoryLocked, run_ablation
+    from simroad.experiments.ablate import run_ablation
+    from simroad.experiments.outlock import DirectoryLocked
 
     global DELAY_S
     try:

@@ -15,9 +15,10 @@ from pathlib import Path
 import pytest
 
 from simroad import SimroadError
-from simroad.experiments.ablate import ResultStore, run_ablation
+from simroad.experiments.ablate import run_ablation
 from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.grid import AblationGrid, cell_key, load_grid_file
+from simroad.experiments.results import ResultStore
 
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))

@@ -10,11 +10,12 @@ import pytest
 
 from simroad import SimroadError
 from simroad.cli.main import main
+from simroad.core.names import NOISE_NAMES
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, _mask_record, parse_filters, run_episode
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, _mask_record, run_episode
 from simroad.experiments.gate import check_requirements, parse_requirement
+from simroad.filters.pipeline import parse_filters
 from simroad.metrics.mask import MaskScore
-from simroad.noise import NOISE_NAMES
 
 SHORT = 6
 

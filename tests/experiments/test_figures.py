@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.envs import SCENARIO_NAMES
+from simroad.errors import SimroadError
 from simroad.experiments.figures import places_figure
 
 pytestmark = pytest.mark.slow

@@ -26,8 +26,8 @@ from pathlib import Path
 
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.cli.main import main
+from simroad.errors import SimroadError
 from simroad.experiments.ablate import run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
 

@@ -10,9 +10,9 @@ import cv2
 import pytest
 
 from simroad import SimroadError
-from simroad.experiments.ablate import ResultStore
 from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.report import METRICS, SKY_COLUMN, build_report, summarise
+from simroad.experiments.results import ResultStore
 from simroad.experiments.stats import mean_interval, proportion_interval
 
 

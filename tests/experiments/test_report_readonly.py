@@ -12,11 +12,11 @@ from pathlib import Path
 import pytest
 
 from simroad import SimroadError
-from simroad.experiments.ablate import ResultStore, run_ablation
+from simroad.experiments.ablate import run_ablation
 from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.grid import AblationGrid
 from simroad.experiments.report import build_report
-from simroad.experiments.results import ROW_TYPES, check_row, read_results
+from simroad.experiments.results import ROW_TYPES, ResultStore, check_row, read_results
 
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).parent

@@ -15,9 +15,9 @@ from pathlib import Path
 import pytest
 
 from simroad import SimroadError
-from simroad.experiments.ablate import TEST_CELL_FN_ENV, DirectoryLocked, run_ablation
+from simroad.experiments.ablate import TEST_CELL_FN_ENV, run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
-from simroad.experiments.outlock import LOCK_NAME, OutputLock
+from simroad.experiments.outlock import LOCK_NAME, DirectoryLocked, OutputLock
 from simroad.experiments.results import read_results
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import simroad.filters as F
-from simroad._validation import SimroadError
+from simroad.errors import SimroadError
 
 IMG = np.random.default_rng(0).integers(0, 256, (12, 12, 3), dtype=np.uint8)
 GREY = np.full((12, 12), 0.5, np.float32)

@@ -275,8 +275,8 @@ def test_lit_diff_is_the_per_channel_computation():
 
 
 def test_camera_response_is_the_float32_formula():
+    from simroad.core.radiometry import GAMMA
     from simroad.filters._common import camera_to_linear, linear_to_camera
-    from simroad.noise.radiometry import GAMMA
 
     rng = np.random.default_rng(14)
     for shape in ((30, 40), (7,), (1, 256)):

@@ -7,9 +7,6 @@ import inspect
 import numpy as np
 import pytest
 
-import simroad.detector
-import simroad.experiments
-import simroad.experiments.episode
 from simroad import SimroadError
 from simroad.filters import (
     FILTER_NAMES,
@@ -50,13 +47,6 @@ def test_orders():
     assert FILTER_NAMES == ("shadow", "rain_snow", "light")  # record text order
     assert FILTER_VARIANTS == ("improved", "paper")
     assert [FILTER_REGISTRY[n].rank for n in FILTERS] == sorted(FILTER_REGISTRY[n].rank for n in FILTERS)
-
-
-def test_old_import_locations_are_the_same_objects():
-    assert simroad.detector.FILTERS is FILTERS and simroad.detector.apply_filters is apply_filters
-    assert simroad.experiments.FILTER_NAMES is FILTER_NAMES
-    assert simroad.experiments.parse_filters is parse_filters
-    assert simroad.experiments.episode.format_filters is format_filters
 
 
 def test_the_improved_shadow_filter_balances_the_light_then_relights():
@@ -138,8 +128,8 @@ def test_parse_and_format_filters():
 
 
 def test_every_filter_names_the_weathers_it_undoes():
+    from simroad.core.names import NOISE_NAMES
     from simroad.filters import FILTER_REGISTRY
-    from simroad.noise import NOISE_NAMES
 
     for spec in FILTER_REGISTRY.values():
         assert spec.weathers, spec.name

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
+from simroad.core.radiometry import linear_to_srgb, srgb_to_linear
 from simroad.filters import relight_shadows
-from simroad.noise.radiometry import linear_to_srgb, srgb_to_linear
 
 H, W = 120, 200
 SKY_BLUE = (0.35, 0.55, 0.9)  # linear, log B/R = 0.94: a clear sky

@@ -6,9 +6,9 @@ import threading
 
 import numpy as np
 
+from simroad.core.radiometry import linear_to_srgb
 from simroad.filters import relight_shadows
 from simroad.filters._workspace import scratch
-from simroad.noise.radiometry import linear_to_srgb
 
 
 def _shadowed(seed: int) -> np.ndarray:

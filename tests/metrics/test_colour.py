@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
+from simroad.errors import SimroadError
 from simroad.metrics.colour import GreyCounts, grey_counts, grey_mask
 
 

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from simroad.camera import CameraRenderer, Frame, PinholeCamera, WorldRaster
+from simroad.experiments.scene import sample_context, sample_scene
 from simroad.noise import NoiseContext
-from simroad.noise.scene import sample_context, sample_scene
 
 
 @dataclass

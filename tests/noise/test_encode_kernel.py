@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from simroad.core.radiometry import change_mask, linear_to_srgb, srgb_to_linear
 from simroad.noise import NoiseContext, WindscreenParams, make_weather
 from simroad.noise._encode_kernel import encode_tables, encode_touched
-from simroad.noise.radiometry import change_mask, linear_to_srgb, srgb_to_linear
 
 
 def _reference(values: np.ndarray) -> np.ndarray:
@@ -68,7 +68,7 @@ def test_the_windscreen_stage_gives_the_frames_and_masks_of_a_full_encode(noise,
     """The runner encodes only the drops' pixels after the windscreen; forcing the full
     encode gives the same bits."""
     import simroad.noise.model as model
-    from simroad.noise.scene import SCENE_EGO_SPEED_M_S, sample_scene
+    from simroad.experiments.scene import SCENE_EGO_SPEED_M_S, sample_scene
 
     frame, cam, world = sample_scene(seed=0)
     kw = dict(camera=cam, depth=frame.depth, material=frame.material, vehicles=frame.vehicles)

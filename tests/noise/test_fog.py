@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from simroad.noise import FogParams, apply_noise, srgb_to_linear
+from simroad.core.radiometry import srgb_to_linear
+from simroad.noise import FogParams, apply_noise
 from simroad.noise.fog import extinction_from_visibility, koschmieder
 
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from simroad.camera import SKY, PinholeCamera
-from simroad.noise import GlareParams, make_weather, srgb_to_linear
-from simroad.noise._geometry import view_geometry
-from simroad.noise.base import sun_direction_ego
+from simroad.core.radiometry import srgb_to_linear
+from simroad.noise import GlareParams, make_weather
+from simroad.noise._geometry import sun_direction_ego, view_geometry
 from simroad.noise.glare import air_mass, specular_lobe, sun_colour
 
 LOW_SUN = GlareParams(sun_azimuth_deg=0.0, sun_elevation_deg=5.0, wetness=0.3, veil_coeff=2.0)

@@ -9,10 +9,11 @@ import pytest
 from scipy import integrate
 
 from simroad.camera import ASPHALT
-from simroad.noise import RainModel, RainParams, linear_to_srgb, make_weather, srgb_to_linear
+from simroad.core.radiometry import linear_to_srgb, srgb_to_linear
+from simroad.noise import RainModel, RainParams, make_weather
 from simroad.noise import _particles as pt
 from simroad.noise._geometry import view_geometry
-from simroad.noise._particles import wind_in_ego
+from simroad.noise._particle_field import wind_in_ego
 from simroad.noise.rain import (
     exposure_beta,
     marshall_palmer,

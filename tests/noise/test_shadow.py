@@ -8,11 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-from simroad._validation import SimroadError
 from simroad.camera import ASPHALT, VehicleBox
+from simroad.camera.codes import BUILDING, IS_GROUND
 from simroad.camera.mesh import Mesh
 from simroad.camera.scenery import Scenery
-from simroad.camera.world import BUILDING, IS_GROUND
+from simroad.errors import SimroadError
 from simroad.noise import ShadowModel, ShadowParams, make_weather
 from simroad.noise._occluders import prism_shadows
 from simroad.noise.shadow import FULL_SUN_SKY_RATIO, face_sun_factor, shadow_factor

@@ -17,9 +17,9 @@ from scipy.spatial import ConvexHull
 
 from simroad.camera._painter import clip_near as _clip_near
 from simroad.control import autopilot_action
+from simroad.core.radiometry import srgb_to_linear
 from simroad.envs import RoadCamEnv
 from simroad.noise.context import FrameState, NoiseContext, resolve_frame
-from simroad.noise.radiometry import srgb_to_linear
 from simroad.noise.shadow import ShadowModel, rasterize_shadows
 
 SUNS = [(0.0, 15.0), (90.0, 35.0), (200.0, 60.0), (300.0, 25.0)]

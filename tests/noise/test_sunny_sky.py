@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 
+from simroad.camera.codes import SKY
 from simroad.camera.sky import sky_radiance
-from simroad.camera.world import SKY
-from simroad.noise import ShadowParams, make_weather, srgb_to_linear
+from simroad.core.radiometry import srgb_to_linear
+from simroad.noise import ShadowParams, make_weather
 from simroad.noise._sunny_sky import clear_sky, clear_sky_panorama
 from simroad.noise.context import FrameState
 

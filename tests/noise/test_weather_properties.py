@@ -7,7 +7,9 @@ import pytest
 
 from simroad import SimroadError
 from simroad.camera import SKY
-from simroad.noise import MASK_THRESHOLD, MODELS, NOISE_NAMES, apply_noise, change_mask, make_weather
+from simroad.core.names import NOISE_NAMES
+from simroad.core.radiometry import MASK_THRESHOLD, change_mask
+from simroad.noise import MODELS, apply_noise, make_weather
 
 SINGLE = [n for n in NOISE_NAMES if n != "clear"]
 SPECS = SINGLE + ["rain+glare", "snow+shadow", "shadow+glare+fog", "rain+snow+shadow+glare+fog"]
@@ -112,7 +114,7 @@ def test_apply_before_reset_is_a_clear_error(name, scene):
 def test_a_frame_without_ground_in_view(noise):
     # A wall or a truck filling the view: no pixel sees the ground (seen in a sweep:
     # highway, shadow 0.8, seed 102). Every model runs, the frame keeps its shape.
-    from simroad.camera.world import BUILDING
+    from simroad.camera.codes import BUILDING
     from simroad.noise import apply_noise
 
     img = np.full((48, 64, 3), 120, np.uint8)

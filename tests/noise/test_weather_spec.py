@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
+from simroad.core.radiometry import change_mask, linear_to_srgb, srgb_to_linear
 from simroad.noise import (
     FogParams,
     GlareParams,
@@ -17,11 +18,8 @@ from simroad.noise import (
     SnowParams,
     Weather,
     apply_noise,
-    change_mask,
-    linear_to_srgb,
     make_weather,
     parse_noise,
-    srgb_to_linear,
 )
 
 

@@ -11,19 +11,13 @@ import pytest
 
 from simroad import SimroadError
 from simroad.control import autopilot_action
+from simroad.core.radiometry import MASK_THRESHOLD, change_mask, srgb_to_linear
 from simroad.envs import RoadCamConfig, RoadCamEnv
-from simroad.noise import (
-    MASK_THRESHOLD,
-    WindscreenModel,
-    WindscreenParams,
-    change_mask,
-    make_weather,
-)
+from simroad.noise import WindscreenModel, WindscreenParams, make_weather
 from simroad.noise._drops import draw_drops, draw_drops_reference
-from simroad.noise._glass import cap_deflection, cap_transmittance, contact_radius, glass_view
+from simroad.noise._glass import cap_deflection, cap_transmittance, contact_radius, defocus_diameter_m, glass_view
+from simroad.noise._windscreen_params import collection_rate, slide_velocity
 from simroad.noise._wiper import blade_angle, swept_interval
-from simroad.noise.radiometry import srgb_to_linear
-from simroad.noise.windscreen import collection_rate, defocus_diameter_m, slide_velocity
 
 OFF = WindscreenParams(wiper_period_s="off")
 

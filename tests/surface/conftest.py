@@ -24,7 +24,7 @@ def no_work(monkeypatch):
     monkeypatch.setattr(RoadCamEnv, "reset", _refuse_work)
     monkeypatch.setattr(commands, "run_ablation", _refuse_work)
     monkeypatch.setattr(commands, "build_report", _refuse_work)
-    monkeypatch.setattr("simroad.noise.gallery.sample_scene", _refuse_work)
+    monkeypatch.setattr("simroad.experiments.gallery.sample_scene", _refuse_work)
     monkeypatch.setattr("simroad.detector.train_default", _refuse_work)
 
 

@@ -11,9 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from simroad._validation import SimroadError
 from simroad.cli import types as T
 from simroad.cli.main import main
+from simroad.errors import SimroadError
 from simroad.noise import MODELS
 
 _FAST = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -2,10 +2,10 @@
 wiper pass on a wet windscreen.
 
 ``render_gallery(path)`` takes the sample racetrack frame of
-:mod:`simroad.noise.scene` (the ego on the first straight, heading world +x, i.e.
+:mod:`simroad.experiments.scene` (the ego on the first straight, heading world +x, i.e.
 towards the glare's default sun) and draws one row per noise: the clean frame and the
 noise at severities 1/3, 2/3 and 1. The frame itself is shared with the benchmark and
-the tests through :mod:`simroad.noise.scene`; ``gallery_frame`` is its old name.
+the tests through :mod:`simroad.experiments.scene`.
 
 ``render_wiper_sequence(path)`` drives a camera along highway-env's straight road in
 rain and draws frames before, during and after a wiper cycle
@@ -22,19 +22,19 @@ from typing import Any, cast
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_int_in_range, check_output_file
+from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, VehicleBox, WorldRaster
+from simroad.core.validation import check_int_in_range, check_output_file
+from simroad.errors import InvalidParameterError
+from simroad.experiments.scene import sample_context, sample_scene
+from simroad.noise._windscreen_params import WindscreenParams
 from simroad.noise.compose import make_weather
 from simroad.noise.context import NoiseContext
-from simroad.noise.scene import sample_context, sample_scene
-from simroad.noise.windscreen import WindscreenModel, WindscreenParams
+from simroad.noise.windscreen import WindscreenModel
 
-__all__ = ["GALLERY_NOISES", "GALLERY_SEVERITIES", "gallery_frame", "render_gallery", "render_wiper_sequence"]
+__all__ = ["GALLERY_NOISES", "GALLERY_SEVERITIES", "render_gallery", "render_wiper_sequence"]
 
 GALLERY_NOISES = ("rain", "snow", "shadow", "glare", "fog")
 GALLERY_SEVERITIES = (1 / 3, 2 / 3, 1.0)
-
-gallery_frame = sample_scene
-"""Old name of :func:`simroad.noise.scene.sample_scene` (kept for its callers)."""
 
 
 def _label(tile: np.ndarray, text: str) -> np.ndarray:
@@ -60,7 +60,7 @@ def render_gallery(path: str | os.PathLike, *, seed: int = 0) -> pathlib.Path:
         The written file (a palette PNG, a few hundred kB).
     """
     if not isinstance(path, (str, os.PathLike)) or pathlib.Path(path).suffix.lower() != ".png":
-        raise SimroadError(f"path: expected a .png file name, got {path!r}.")
+        raise InvalidParameterError(f"path: expected a .png file name, got {path!r}.")
     path = check_output_file("path", path, suffixes=(".png",))  # before any rendering
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
     frame, cam, world = sample_scene(seed)
@@ -109,7 +109,7 @@ def render_wiper_sequence(
     pathlib.Path
     """
     if not isinstance(path, (str, os.PathLike)) or pathlib.Path(path).suffix.lower() != ".png":
-        raise SimroadError(f"path: expected a .png file name, got {path!r}.")
+        raise InvalidParameterError(f"path: expected a .png file name, got {path!r}.")
     path = check_output_file("path", path, suffixes=(".png",))
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
     frames, times, picks = _wiper_frames(seed, severity, size)
@@ -126,8 +126,6 @@ def _highway_world(seed: int):
     import gymnasium as gym
     import highway_env  # noqa: F401  (registers the environments)
 
-    from simroad.camera import WorldRaster
-
     env = gym.make("highway-v0")
     try:
         env.reset(seed=seed)
@@ -139,7 +137,6 @@ def _highway_world(seed: int):
 def _wiper_frames(seed: int, severity: float, size: tuple[int, int]) -> tuple[list, list, list]:
     """Render 6 s of rain at 30 frames/s on a straight road; pick 8 frames around the
     first wipe: (frames, times from the wipe's start, [(index, blade in view)])."""
-    from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, VehicleBox
 
     world = _highway_world(seed)
     cam = PinholeCamera(CameraConfig(width=size[0], height=size[1]))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simroad._colour import hsi_intensity, hsi_saturation
+from simroad.core.colour import hsi_intensity, hsi_saturation
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])

@@ -6,7 +6,7 @@ import pytest
 from PIL import Image
 
 from simroad import SimroadError
-from simroad.noise.gallery import GALLERY_NOISES, GALLERY_SEVERITIES, render_gallery, render_wiper_sequence
+from simroad.experiments.gallery import GALLERY_NOISES, GALLERY_SEVERITIES, render_gallery, render_wiper_sequence
 
 
 def test_gallery_is_one_small_png_with_a_row_per_noise(tmp_path):
@@ -20,13 +20,6 @@ def test_gallery_is_one_small_png_with_a_row_per_noise(tmp_path):
 def test_gallery_wants_a_png_path(tmp_path):
     with pytest.raises(SimroadError, match=r"path: expected a \.png"):
         render_gallery(tmp_path / "weather.jpg")
-
-
-def test_gallery_frame_is_the_shared_sample_scene():
-    from simroad.noise.gallery import gallery_frame
-    from simroad.noise.scene import sample_scene
-
-    assert gallery_frame is sample_scene
 
 
 def test_wiper_figure_is_eight_frames_around_a_wipe(tmp_path):

@@ -19,7 +19,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from simroad._validation import SimroadError, check_int_in_range
+from simroad.core.validation import check_int_in_range
+from simroad.errors import InvalidParameterError
 
 __all__ = ["GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
 
@@ -32,13 +33,13 @@ _DECODE_LUT = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.fl
 def _check_frame(name: str, image: object, dtypes: tuple[str, ...]) -> None:
     """A cheap per-frame check (type, dtype, shape, at least one pixel; no pass over the pixels)."""
     if not isinstance(image, np.ndarray):
-        raise SimroadError(f"{name}: expected a numpy array (H, W, 3), got {type(image).__name__}.")
+        raise InvalidParameterError(f"{name}: expected a numpy array (H, W, 3), got {type(image).__name__}.")
     if image.dtype.name not in dtypes:
-        raise SimroadError(f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}.")
+        raise InvalidParameterError(f"{name}: expected dtype {' or '.join(dtypes)}, got {image.dtype}.")
     if image.ndim != 3 or image.shape[2] != 3:
-        raise SimroadError(f"{name}: expected an array of shape (H, W, 3), got shape {image.shape}.")
+        raise InvalidParameterError(f"{name}: expected an array of shape (H, W, 3), got shape {image.shape}.")
     if image.size == 0:
-        raise SimroadError(f"{name}: expected at least 1x1 pixels, got shape {image.shape}.")
+        raise InvalidParameterError(f"{name}: expected at least 1x1 pixels, got shape {image.shape}.")
 
 
 def srgb_to_linear(image: np.ndarray) -> np.ndarray:
@@ -99,7 +100,7 @@ def change_mask(before: np.ndarray, after: np.ndarray, threshold: int = MASK_THR
     _check_frame("before", before, ("uint8",))
     _check_frame("after", after, ("uint8",))
     if before.shape != after.shape:
-        raise SimroadError(f"after: expected the shape of before, {before.shape}, got {after.shape}.")
+        raise InvalidParameterError(f"after: expected the shape of before, {before.shape}, got {after.shape}.")
     check_int_in_range("threshold", threshold, 0, 255)
     d = cv2.absdiff(before, after)
     return np.maximum(np.maximum(d[..., 0], d[..., 1]), d[..., 2]) >= threshold

@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from simroad.errors import InvalidParameterError
+
 __all__ = [
-    "SimroadError",
     "check_array",
     "check_bool",
     "check_choice",
@@ -28,10 +29,6 @@ __all__ = [
     "check_mask",
     "normalize_rng",
 ]
-
-
-class SimroadError(ValueError):
-    """A user-facing error: bad input, with the fix in its message."""
 
 
 def _did_you_mean(value: str, valid: Iterable[str]) -> str:
@@ -48,7 +45,7 @@ def check_choice(name: str, value: Any, valid: Iterable[str]) -> str:
     valid = list(valid)
     if not isinstance(value, str) or value not in valid:
         hint = _did_you_mean(value, valid) if isinstance(value, str) else ""
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: unknown value {value!r}; expected one of {', '.join(repr(v) for v in valid)}.{hint}"
         )
     return value
@@ -57,17 +54,17 @@ def check_choice(name: str, value: Any, valid: Iterable[str]) -> str:
 def check_bool(name: str, value: Any) -> bool:
     """Check a plain True/False flag (numpy bools accepted) and return it."""
     if not isinstance(value, (bool, np.bool_)):
-        raise SimroadError(f"{name}: expected True or False, got {value!r} ({type(value).__name__}).")
+        raise InvalidParameterError(f"{name}: expected True or False, got {value!r} ({type(value).__name__}).")
     return bool(value)
 
 
 def check_finite_number(name: str, value: Any) -> float:
     """Return ``value`` as a float, raising if it is not a finite real number."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise SimroadError(f"{name}: expected a number, got {type(value).__name__} {value!r}.")
+        raise InvalidParameterError(f"{name}: expected a number, got {type(value).__name__} {value!r}.")
     value = float(value)
     if not math.isfinite(value):
-        raise SimroadError(f"{name}: expected a finite number, got {value!r}.")
+        raise InvalidParameterError(f"{name}: expected a finite number, got {value!r}.")
     return value
 
 
@@ -93,7 +90,7 @@ def check_in_range(
         lb = "[" if low_inclusive else "("
         hb = "]" if high_inclusive else ")"
         u = f" {unit}" if unit else ""
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected a value in {lb}{low:g}, {high:g}{hb}{u}, got {value:g}{u}. "
             f"Pass a value inside that range."
         )
@@ -106,10 +103,12 @@ def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:
         if isinstance(value, float) and value.is_integer():
             value = int(value)
         else:
-            raise SimroadError(f"{name}: expected an integer in [{low}, {high}], got {type(value).__name__} {value!r}.")
+            raise InvalidParameterError(
+                f"{name}: expected an integer in [{low}, {high}], got {type(value).__name__} {value!r}."
+            )
     value = int(value)
     if not low <= value <= high:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected an integer in [{low}, {high}], got {value}. Pass a value inside that range."
         )
     return value
@@ -118,12 +117,12 @@ def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:
 def _check_ndarray(name: str, value: Any, dtype: str | Sequence[str], hint: str) -> None:
     """The type and dtype checks shared by :func:`check_image` and :func:`check_array`."""
     if not isinstance(value, np.ndarray):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected a numpy array, got {type(value).__name__}. Convert it with numpy.asarray(...)."
         )
     dtypes = (dtype,) if isinstance(dtype, str) else tuple(dtype)
     if value.dtype.name not in dtypes:
-        raise SimroadError(f"{name}: expected dtype {' or '.join(dtypes)}, got {value.dtype}. {hint}")
+        raise InvalidParameterError(f"{name}: expected dtype {' or '.join(dtypes)}, got {value.dtype}. {hint}")
 
 
 def check_image(
@@ -167,15 +166,17 @@ def check_image(
         shape_ok = image.ndim == 3 and image.shape[2] == channels
         expected = f"(H, W, {channels})"
     if not shape_ok:
-        raise SimroadError(f"{name}: expected an array of shape {expected}, got shape {image.shape}.")
+        raise InvalidParameterError(f"{name}: expected an array of shape {expected}, got shape {image.shape}.")
     h, w = image.shape[:2]
     if h < min_size or w < min_size:
-        raise SimroadError(f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height).")
+        raise InvalidParameterError(
+            f"{name}: expected at least {min_size}x{min_size} pixels, got {w}x{h} (width x height)."
+        )
     if image.dtype.kind == "f":
         _check_finite(name, image)
         lo, hi = float(image.min()), float(image.max())
         if lo < 0.0 or hi > 1.0:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}: float images must lie in [0, 1], got values in [{lo:g}, {hi:g}]. Divide uint8 images by 255."
             )
     return image
@@ -186,7 +187,7 @@ def _check_finite(name: str, array: np.ndarray) -> None:
     finite = np.isfinite(array)
     if not finite.all():
         bad = int(array.size - np.count_nonzero(finite))
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected finite values, got {bad} NaN or infinite value(s). "
             "Replace them first, e.g. with numpy.nan_to_num(...)."
         )
@@ -220,11 +221,11 @@ def check_array(
     _check_ndarray(name, array, dtypes, f"Convert with .astype(np.{dtypes[0]}).")
     dims = (ndim,) if isinstance(ndim, int) else tuple(ndim)
     if array.ndim not in dims:
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: expected an array with {' or '.join(str(d) for d in dims)} dimensions, got shape {array.shape}."
         )
     if array.size == 0:
-        raise SimroadError(f"{name}: expected a non-empty array, got shape {array.shape}.")
+        raise InvalidParameterError(f"{name}: expected a non-empty array, got shape {array.shape}.")
     if array.dtype.kind == "f":
         _check_finite(name, array)
     return array
@@ -233,18 +234,20 @@ def check_array(
 def check_mask(name: str, mask: Any, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Check a boolean (H, W) mask, optionally of a given shape, and return it."""
     if not isinstance(mask, np.ndarray):
-        raise SimroadError(f"{name}: expected a numpy bool array, got {type(mask).__name__}.")
+        raise InvalidParameterError(f"{name}: expected a numpy bool array, got {type(mask).__name__}.")
     if mask.dtype != bool:
         if mask.dtype.kind in "iu" and mask.size and set(np.unique(mask)).issubset({0, 1}):
             mask = mask.astype(bool)
         else:
-            raise SimroadError(f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. Convert with mask > 0.")
+            raise InvalidParameterError(
+                f"{name}: expected a bool (H, W) mask, got dtype {mask.dtype}. Convert with mask > 0."
+            )
     if mask.ndim != 2:
-        raise SimroadError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}.")
+        raise InvalidParameterError(f"{name}: expected a 2-D (H, W) mask, got shape {mask.shape}.")
     if mask.size == 0:
-        raise SimroadError(f"{name}: expected a mask of at least 1x1 pixels, got shape {mask.shape}.")
+        raise InvalidParameterError(f"{name}: expected a mask of at least 1x1 pixels, got shape {mask.shape}.")
     if shape is not None and mask.shape != tuple(shape):
-        raise SimroadError(f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}.")
+        raise InvalidParameterError(f"{name}: expected shape {tuple(shape)} to match the image, got {mask.shape}.")
     return mask
 
 
@@ -257,9 +260,11 @@ def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -
         return rng
     if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool):
         if rng < 0:
-            raise SimroadError(f"{name}: expected a seed >= 0, got {int(rng)}. Pass a non-negative integer seed.")
+            raise InvalidParameterError(
+                f"{name}: expected a seed >= 0, got {int(rng)}. Pass a non-negative integer seed."
+            )
         return np.random.default_rng(int(rng))
-    raise SimroadError(
+    raise InvalidParameterError(
         f"{name}: expected a numpy Generator or an integer seed, got {rng!r}. Pass rng=np.random.default_rng(seed)."
     )
 
@@ -282,17 +287,17 @@ def check_output_dir(name: str, path: Any) -> Path:
     (not a regular file, which would make every folder below it impossible).
     """
     if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
-        raise SimroadError(f"{name}: expected a directory path, got {type(path).__name__} {path!r}.")
+        raise InvalidParameterError(f"{name}: expected a directory path, got {type(path).__name__} {path!r}.")
     p = Path(path)
     base = _nearest_existing(p)
     if base == p and not p.is_dir():
-        raise SimroadError(f"{name}: {str(p)!r} is a file, not a directory. Choose a writable directory path.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} is a file, not a directory. Choose a writable directory path.")
     if not base.is_dir():
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: {str(p)!r} lies below {str(base)!r}, which is a file, not a directory. Choose a writable path."
         )
     if not os.access(base, os.W_OK | os.X_OK):
-        raise SimroadError(
+        raise InvalidParameterError(
             f"{name}: {str(base)!r} is not writable, so {str(p)!r} cannot be written. Choose another path."
         )
     return p
@@ -305,33 +310,33 @@ def check_output_file(name: str, path: Any, *, suffixes: Iterable[str] | None = 
     Nothing is created.
     """
     if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
-        raise SimroadError(f"{name}: expected a file path, got {type(path).__name__} {path!r}.")
+        raise InvalidParameterError(f"{name}: expected a file path, got {type(path).__name__} {path!r}.")
     p = Path(path)
     if p.is_dir():
-        raise SimroadError(f"{name}: {str(p)!r} is a directory; give a file path inside it.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} is a directory; give a file path inside it.")
     if suffixes is not None:
         valid = sorted(set(suffixes))
         if p.suffix.lower() not in valid:
-            raise SimroadError(
+            raise InvalidParameterError(
                 f"{name}: cannot write {str(p)!r}: the file type {p.suffix or '(none)'!r} is not supported; "
                 f"expected a name ending in one of {', '.join(valid)}."
             )
     check_output_dir(name, p.parent)
     if p.exists() and not os.access(p, os.W_OK):
-        raise SimroadError(f"{name}: {str(p)!r} exists and is not writable. Choose another path.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} exists and is not writable. Choose another path.")
     return p
 
 
 def _check_input_path(name: str, path: Any, kind: str) -> Path:
     """``path`` as a Path naming an existing ``kind`` (``"directory"`` or ``"file"``)."""
     if not isinstance(path, (str, os.PathLike)) or str(path).strip() == "":
-        raise SimroadError(f"{name}: expected a {kind} path, got {type(path).__name__} {path!r}.")
+        raise InvalidParameterError(f"{name}: expected a {kind} path, got {type(path).__name__} {path!r}.")
     p = Path(path)
     if not p.exists():
-        raise SimroadError(f"{name}: {str(p)!r} does not exist; expected an existing {kind}.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} does not exist; expected an existing {kind}.")
     if not (p.is_dir() if kind == "directory" else p.is_file()):
         what = "a directory" if kind == "directory" else "a regular file (a directory?)"
-        raise SimroadError(f"{name}: {str(p)!r} is not {what}; expected an existing {kind}.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} is not {what}; expected an existing {kind}.")
     return p
 
 
@@ -344,7 +349,7 @@ def check_input_file(name: str, path: Any) -> Path:
     """Check that ``path`` names an existing, readable regular file; return a Path."""
     p = _check_input_path(name, path, "file")
     if not os.access(p, os.R_OK):
-        raise SimroadError(f"{name}: {str(p)!r} is not readable; check its permissions.")
+        raise InvalidParameterError(f"{name}: {str(p)!r} is not readable; check its permissions.")
     return p
 
 

@@ -1,12 +1,11 @@
-"""The shared input checks of simroad._validation (each engineer adds tests for their checkers)."""
+"""The shared input checks of simroad.core.validation (each engineer adds tests for their checkers)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from simroad._validation import (
-    SimroadError,
+from simroad.core.validation import (
     check_array,
     check_bool,
     check_image,
@@ -15,6 +14,7 @@ from simroad._validation import (
     check_output_file,
     normalize_rng,
 )
+from simroad.errors import SimroadError
 
 
 # --- check_array and the finite-value message (issue 13, models) ---------------------------------
@@ -107,7 +107,7 @@ def test_normalize_rng_keeps_valid_seeds():
 
 
 def test_check_input_dir_and_file(tmp_path):
-    from simroad._validation import check_input_dir, check_input_file
+    from simroad.core.validation import check_input_dir, check_input_file
 
     f = tmp_path / "f.txt"
     f.write_text("x")

@@ -1,0 +1,8 @@
+"""Physical constants shared by the dynamics, the controller and the safety metrics."""
+
+from __future__ import annotations
+
+__all__ = ["GRAVITY_M_S2"]
+
+#: Standard gravity, m/s^2.
+GRAVITY_M_S2 = 9.81
