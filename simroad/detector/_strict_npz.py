@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from numpy.lib import format as npy_format
 
-from simroad.errors import ModelFileError, SimroadError
+from simroad.errors import InvalidParameterError, ModelFileError, SimroadError
 
 __all__ = ["MAX_ARRAY_BYTES", "model_error", "read_npz"]
 

@@ -55,9 +55,9 @@ import numpy as np
 from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER
 from simroad.core.validation import check_in_range
 from simroad.noise import _particles as pt
-from simroad.noise._particle_field import ParticleField, sample_field
 from simroad.noise._arrays import gray3, material_weights, rgb_scalar, smoothstep
 from simroad.noise._geometry import ego_to_world, view_geometry
+from simroad.noise._particle_field import ParticleField, sample_field
 from simroad.noise.context import FrameState
 from simroad.noise.fog import koschmieder
 from simroad.noise.model import Limit, Params
