@@ -3,8 +3,9 @@
 from simroad.camera.bev import render_bev
 from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE
 from simroad.camera.geometry import CameraConfig, PinholeCamera
-from simroad.camera.render import CameraRenderer, Frame, VehicleBox
+from simroad.camera.render import CameraRenderer, Frame
 from simroad.camera.sensor import Sensor, SensorParams
+from simroad.camera.vehicles import VehicleBox
 from simroad.camera.world import WorldRaster
 
 __all__ = [

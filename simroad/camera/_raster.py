@@ -27,6 +27,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from simroad.core.radiometry import GAMMA
+
 __all__ = ["contact_shadows", "face_table", "fade", "footprints", "mesh_data", "rasterise", "shade"]
 
 #: fast-math flags: no ``nnan``/``ninf`` (the sky's depth is inf)
@@ -409,7 +411,7 @@ def contact_shadows(rgb, ground, face_id, gx, gy, boxes, corners, cam, strength,
                 a = min(max((reach - sd) / (reach + inner), 0.0), 1.0)
                 if a <= 0.0:
                     continue
-                g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / 2.2)
+                g = (1.0 - strength * a * a * (3 - 2 * a)) ** (1 / GAMMA)
                 if g < gain[y - y_lo, x - x_lo]:
                     gain[y - y_lo, x - x_lo] = g
     for y in range(y_lo, y_hi + 1):

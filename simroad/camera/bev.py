@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 
 if TYPE_CHECKING:
-    from simroad.camera.render import VehicleBox
+    from simroad.camera.vehicles import VehicleBox
     from simroad.camera.world import WorldRaster
 
 __all__ = ["render_bev"]

@@ -27,14 +27,13 @@ from simroad.camera.codes import SKY
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.sky import draw_sky, sky_image
-from simroad.camera.vehicles import vehicles_mesh
+from simroad.camera.vehicles import VehicleBox, vehicles_mesh
 from simroad.camera.window import Window
 from simroad.camera.world import WorldRaster
 from simroad.errors import InvalidParameterError
 
-__all__ = ["AO_STRENGTH", "CameraRenderer", "Frame", "VehicleBox"]
+__all__ = ["AO_STRENGTH", "CameraRenderer", "Frame"]
 
-VEHICLE_HEIGHT_M = 1.5
 #: Ambient occlusion under a vehicle: fraction of the sky light the ground under the
 #: car loses ...
 AO_STRENGTH = 0.55
@@ -44,40 +43,6 @@ _AO_INNER_M = 0.25
 _AO_REACH_M = 0.45
 #: Scenery is requested this far (m) beyond the visible ground's footprint.
 _OBJECT_MARGIN_M = 8.0
-
-
-@dataclass(frozen=True)
-class VehicleBox:
-    """A vehicle to draw: centre ``(x, y)`` in m, heading in rad, size in m, RGB.
-
-    ``rgb`` (sRGB) colours it in the bird's-eye view; ``paint`` is the linear albedo
-    of its body in the camera (decoded from ``rgb`` when ``None``; see
-    :func:`simroad.camera.vehicles.draw_paint`).
-    """
-
-    x: float
-    y: float
-    heading: float
-    length: float
-    width: float
-    rgb: tuple[int, int, int]
-    height: float = VEHICLE_HEIGHT_M
-    paint: tuple[float, float, float] | None = None
-
-    def corners(self) -> np.ndarray:
-        """Ground corners (4, 2): front-left, front-right, rear-right, rear-left."""
-        c, s = math.cos(self.heading), math.sin(self.heading)
-        fwd, right = np.array([c, s]), np.array([-s, c])
-        hl, hw = self.length / 2, self.width / 2
-        ctr = np.array([self.x, self.y])
-        return np.array(
-            [
-                ctr + hl * fwd - hw * right,
-                ctr + hl * fwd + hw * right,
-                ctr - hl * fwd + hw * right,
-                ctr - hl * fwd - hw * right,
-            ]
-        )
 
 
 _NO_FACES = np.zeros((0, 0), dtype=np.int32)

@@ -16,7 +16,7 @@ import numpy as np
 
 from simroad.camera.lighting import radiance
 from simroad.camera.palette import Palette
-from simroad.core.radiometry import linear_to_srgb
+from simroad.core.radiometry import GAMMA, linear_to_srgb
 
 __all__ = ["ground_textures", "periodic_noise", "wear_factor"]
 
@@ -220,4 +220,4 @@ def wear_factor(distance_m: np.ndarray, age: float) -> np.ndarray:
     wheel = np.exp(-(((d - 1.2) / 0.35) ** 2))
     oil = np.exp(-(((d - 2.0) / 0.3) ** 2))
     lin = 1.0 + (0.16 * age - 0.05) * wheel - (0.04 + 0.10 * age) * oil
-    return np.power(lin, 1.0 / 2.2).astype(np.float32)
+    return np.power(lin, 1.0 / GAMMA).astype(np.float32)

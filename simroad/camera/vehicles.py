@@ -28,7 +28,54 @@ from simroad.camera.materials import ALBEDO
 from simroad.camera.mesh import MAX_VERTICES, Mesh
 from simroad.core.radiometry import GAMMA
 
-__all__ = ["PAINTS", "Paint", "box_mesh", "draw_paint", "paint_rgb", "vehicle_mesh", "vehicles_mesh"]
+__all__ = [
+    "PAINTS",
+    "VEHICLE_HEIGHT_M",
+    "Paint",
+    "VehicleBox",
+    "box_mesh",
+    "draw_paint",
+    "paint_rgb",
+    "vehicle_mesh",
+    "vehicles_mesh",
+]
+
+#: Height of a vehicle box, m.
+VEHICLE_HEIGHT_M = 1.5
+
+
+@dataclass(frozen=True)
+class VehicleBox:
+    """A vehicle to draw: centre ``(x, y)`` in m, heading in rad, size in m, RGB.
+
+    ``rgb`` (sRGB) colours it in the bird's-eye view; ``paint`` is the linear albedo
+    of its body in the camera (decoded from ``rgb`` when ``None``; see
+    :func:`simroad.camera.vehicles.draw_paint`).
+    """
+
+    x: float
+    y: float
+    heading: float
+    length: float
+    width: float
+    rgb: tuple[int, int, int]
+    height: float = VEHICLE_HEIGHT_M
+    paint: tuple[float, float, float] | None = None
+
+    def corners(self) -> np.ndarray:
+        """Ground corners (4, 2): front-left, front-right, rear-right, rear-left."""
+        c, s = math.cos(self.heading), math.sin(self.heading)
+        fwd, right = np.array([c, s]), np.array([-s, c])
+        hl, hw = self.length / 2, self.width / 2
+        ctr = np.array([self.x, self.y])
+        return np.array(
+            [
+                ctr + hl * fwd - hw * right,
+                ctr + hl * fwd + hw * right,
+                ctr - hl * fwd + hw * right,
+                ctr - hl * fwd - hw * right,
+            ]
+        )
 
 
 @dataclass(frozen=True)
@@ -248,7 +295,7 @@ def _decal(b: _Builder, face: np.ndarray, normal: np.ndarray, y0: float, y1: flo
 
 
 def vehicles_mesh(boxes: Sequence, paints: np.ndarray | None = None) -> Mesh:
-    """One mesh of all ``boxes`` (:class:`~simroad.camera.render.VehicleBox`).
+    """One mesh of all ``boxes`` (:class:`VehicleBox`).
 
     Parameters
     ----------
@@ -321,7 +368,7 @@ def _place(verts, normal, albedo, pose, cos, sin, paints, wv, wn, alb):  # pragm
 
 
 def vehicle_mesh(box) -> Mesh:
-    """The mesh of one vehicle (:class:`~simroad.camera.render.VehicleBox`)."""
+    """The mesh of one vehicle (:class:`VehicleBox`)."""
     return vehicles_mesh([box])
 
 

@@ -15,7 +15,7 @@ from simroad.cli import commands
 from simroad.cli import types as T
 from simroad.cli.env_options import add_env_options, default_of, names
 from simroad.control.drivers import DRIVER_NAMES
-from simroad.core.names import NOISE_NAMES
+from simroad.core.names import NOISE_NAMES, TRAIN_SEEDS
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.experiments._ray_backend import check_ray_address
@@ -28,7 +28,7 @@ from simroad.experiments.figures import camera_figure, figure_suffixes
 from simroad.experiments.filter_effect import filter_effect_table
 from simroad.experiments.grid import AblationGrid
 from simroad.experiments.robustness import PhotoCamera
-from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED, TRAIN_SEEDS
+from simroad.experiments.training import DEFAULT_MODEL_FILE, TRAIN_FRAMES_PER_SEED
 from simroad.filters import FILTER_NAMES, FILTER_VARIANTS, apply_filters, format_filters
 
 __all__ = ["build_parser"]

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-__all__ = ["GRAVITY_M_S2"]
+__all__ = ["GRAVITY_M_S2", "WATER_N"]
 
 #: Standard gravity, m/s^2.
 GRAVITY_M_S2 = 9.81
+#: Refractive index of water (visible light, 20 °C).
+WATER_N = 1.333

@@ -19,6 +19,7 @@ import numpy as np
 from simroad.errors import InvalidParameterError
 
 __all__ = [
+    "IMAGE_DTYPES",
     "check_array",
     "check_bool",
     "check_choice",
@@ -29,6 +30,10 @@ __all__ = [
     "check_mask",
     "normalize_rng",
 ]
+
+
+#: The dtypes an RGB frame may have: uint8 in 0..255, or float in [0, 1].
+IMAGE_DTYPES = ("uint8", "float32", "float64")
 
 
 def _did_you_mean(value: str, valid: Iterable[str]) -> str:

@@ -25,6 +25,7 @@ from sklearn.svm import SVC
 from sklearn.utils.validation import check_is_fitted
 
 from simroad.core.validation import (
+    IMAGE_DTYPES,
     check_bool,
     check_choice,
     check_image,
@@ -38,7 +39,6 @@ from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes, extend_upward
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
 from simroad.detector.pixels import (
-    IMAGE_DTYPES,
     MIN_IMAGE_SIZE,
     check_training_set,
     filtered_rgb_masks,

@@ -6,13 +6,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from simroad.core.validation import check_image, check_mask
+from simroad.core.validation import IMAGE_DTYPES, check_image, check_mask
 from simroad.errors import InvalidParameterError
 from simroad.filters._common import planes_to_uint8, to_planes
 from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
 
 __all__ = [
-    "IMAGE_DTYPES",
     "MIN_IMAGE_SIZE",
     "check_training_set",
     "filtered_rgb",
@@ -26,7 +25,6 @@ __all__ = [
 #: Smallest image side the detector accepts, in pixels.
 MIN_IMAGE_SIZE = 8
 #: Image dtypes the detector accepts (uint8, or float in [0, 1]).
-IMAGE_DTYPES = ("uint8", "float32", "float64")
 
 
 def check_training_set(

@@ -109,7 +109,7 @@ class ScenarioSpec:
 
     name: str
     summary: str
-    factory: EnvFactory
+    factory: str
     lane_width_m: float
     cruise_speed_m_s: float
     lanes_count: int

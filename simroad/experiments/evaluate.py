@@ -16,6 +16,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from simroad.core.names import HELD_OUT_SEEDS
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.detector import RoadDetector
 from simroad.detector.registry import load_detector, predict_alone
@@ -23,7 +24,6 @@ from simroad.envs import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError, SimroadError
 from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
-from simroad.experiments.training import HELD_OUT_SEEDS
 from simroad.experiments.video import overlay_frame
 from simroad.filters import format_filters, parse_filters, remove_highlights, remove_shadows
 from simroad.filters.pipeline import FILTERS

@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
+from simroad.core.names import HELD_OUT_SEEDS
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.detector import RoadDetector
 from simroad.detector.registry import predict_alone
@@ -97,7 +98,7 @@ def filter_effect(
     noise: str,
     filters: Sequence[str],
     *,
-    seeds: Iterable[int] = range(100, 105),
+    seeds: Iterable[int] = HELD_OUT_SEEDS,
     frames: int = 20,
     severity: float = 0.7,
     every: int = 4,
@@ -158,7 +159,7 @@ def filter_effect(
 
 def filter_effect_table(
     *,
-    seeds: Iterable[int] = range(100, 105),
+    seeds: Iterable[int] = HELD_OUT_SEEDS,
     frames: int = 20,
     severity: float = 0.7,
     every: int = 4,

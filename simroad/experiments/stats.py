@@ -51,6 +51,7 @@ import numpy as np
 
 from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.errors import InvalidParameterError
+from simroad.filters.pipeline import FILTER_NAMES, format_filters
 
 __all__ = [
     "ALL_FILTERS",
@@ -77,7 +78,7 @@ SEED = 0
 #: Record keys compared in pairs (differences ``setting - baseline``).
 PAIRED_METRICS = ("driving_score", "offroad_fraction", "fnr", "fpr")
 #: The filter set with every filter on, as records spell it.
-ALL_FILTERS = "shadow+rain_snow+light"
+ALL_FILTERS = format_filters(FILTER_NAMES)
 #: A pair's world: records that match on these keys (and the comparison's group) are paired.
 _PAIR_KEY = ("scenario", "seed")
 #: Confusion counts in the order of the columns of per-episode count arrays.

@@ -6,6 +6,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from simroad.core.names import TRAIN_SEEDS
 from simroad.core.validation import check_int_in_range
 from simroad.detector import train_default
 from simroad.detector.persistence import check_model_destination
@@ -14,19 +15,13 @@ from simroad.experiments.frames import check_frame_protocol, collect_frames
 
 __all__ = [
     "DEFAULT_MODEL_FILE",
-    "HELD_OUT_SEEDS",
     "TRAIN_FRAMES_PER_SEED",
-    "TRAIN_SEEDS",
     "check_writable_file",
     "train_detector",
 ]
 
-#: Seeds of the shipped model's training worlds; evaluation uses seeds >= 100.
-TRAIN_SEEDS = tuple(range(16))
 #: Frames kept per scenario and training seed (one every 6 policy steps).
 TRAIN_FRAMES_PER_SEED = 12
-#: Worlds the shipped model never saw: the default of detector evaluations.
-HELD_OUT_SEEDS = tuple(range(100, 105))
 #: Where ``simroad train-detector`` writes by default: this name in the working
 #: directory (never the installed package).
 DEFAULT_MODEL_FILE = "road_detector.npz"

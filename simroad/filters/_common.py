@@ -22,13 +22,12 @@ import cv2
 import numpy as np
 
 from simroad.core.radiometry import GAMMA
-from simroad.core.validation import check_image, check_int_in_range
+from simroad.core.validation import IMAGE_DTYPES, check_image, check_int_in_range
 from simroad.errors import InvalidParameterError
 from simroad.filters._kernels import LEVELS, response_forward, response_inverse, uint8_planes
 from simroad.filters._plane_kernels import area_quarter, clip_unit
 
 __all__ = [
-    "FILTER_DTYPES",
     "FilterResult",
     "absent_on_preview",
     "channel_max",
@@ -45,7 +44,6 @@ __all__ = [
 ]
 
 #: Image dtypes every public filter accepts and returns unchanged.
-FILTER_DTYPES = ("uint8", "float32", "float64")
 
 Planes = list  # three float32 (H, W) arrays: R, G, B
 
@@ -71,7 +69,7 @@ class FilterResult(NamedTuple):
 
 def check_filter_image(name: str, image: object) -> np.ndarray:
     """Validate a filter input: ``(H, W, 3)`` uint8 or float in [0, 1], finite, non-empty."""
-    return check_image(name, image, dtype=FILTER_DTYPES, channels=3, min_size=1)
+    return check_image(name, image, dtype=IMAGE_DTYPES, channels=3, min_size=1)
 
 
 def check_odd_size(name: str, value: object, low: int, high: int) -> int:

@@ -67,6 +67,7 @@ import cv2
 import numpy as np
 from scipy.optimize import isotonic_regression
 
+from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_in_range
 from simroad.filters._common import (
     FilterResult,
@@ -233,7 +234,7 @@ def remove_haze(
     percentile: float = 2.0,
     t_min: float = 0.5,
     tolerance: float = 0.01,
-    gamma: float = 2.2,
+    gamma: float = GAMMA,
 ) -> FilterResult:
     """Remove the veil of rain or snow haze, row by row (see the module notes).
 

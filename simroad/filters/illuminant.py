@@ -32,6 +32,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_in_range
 from simroad.errors import InvalidParameterError
 from simroad.filters._common import FilterResult, Planes, absent_on_preview, check_filter_image, from_planes, to_planes
@@ -138,7 +139,7 @@ def remove_colour_cast(
     rows: float = 0.4,
     chromaticity: tuple = CLEAR_CHROMATICITY,
     target: tuple = CLEAR_MEAN_CHROMATICITY,
-    gamma: float = 2.2,
+    gamma: float = GAMMA,
 ) -> FilterResult:
     """Undo a colour cast of the light beyond what clear weather shows (see the module notes).
 

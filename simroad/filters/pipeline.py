@@ -29,10 +29,9 @@ from typing import Any
 import numpy as np
 
 from simroad.core.names import NOISE_NAMES
-from simroad.core.validation import check_choice, check_image
+from simroad.core.validation import IMAGE_DTYPES, check_choice, check_image
 from simroad.errors import InvalidParameterError
 from simroad.filters._common import (
-    FILTER_DTYPES,
     FilterResult,
     Planes,
     clip_planes,
@@ -312,7 +311,7 @@ def apply_filters(image: np.ndarray, filters: Sequence[str] = FILTERS, *, varian
     ndarray, same shape and dtype as ``image``
         A new array.
     """
-    image = check_image("image", image, dtype=FILTER_DTYPES, channels=3)
+    image = check_image("image", image, dtype=IMAGE_DTYPES, channels=3)
     names = check_filters(filters)
     variant = check_choice("variant", variant, FILTER_VARIANTS)
     if not names:

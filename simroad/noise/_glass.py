@@ -29,12 +29,12 @@ import cv2
 import numpy as np
 
 from simroad.camera.geometry import CameraConfig, PinholeCamera
+from simroad.core.constants import WATER_N
 from simroad.noise._geometry import fresnel_unpolarized, view_geometry
 
 __all__ = [
     "MIN_ALPHA",
     "UNIFORM_BELOW_PX",
-    "WATER_N",
     "Glass",
     "GlassView",
     "Sprite",
@@ -46,7 +46,6 @@ __all__ = [
     "glass_view",
 ]
 
-WATER_N = 1.333
 #: Drops whose image half-width is below this (px) are drawn in one colour: their mean view.
 UNIFORM_BELOW_PX = 2.5
 #: Sprite pixels the drop covers less than this (a fiftieth of the aperture) are left out.

@@ -24,6 +24,7 @@ import numpy as np
 from simroad.noise._geometry import ViewGeometry
 
 __all__ = [
+    "X_NEAR_M",
     "ParticleField",
     "advance",
     "particle_velocity",
@@ -31,6 +32,9 @@ __all__ = [
     "sample_field",
     "wind_in_ego",
 ]
+
+#: Free-falling drops and flakes start this far ahead of the camera, beyond the windscreen (m).
+X_NEAR_M = 0.6
 
 
 @dataclass

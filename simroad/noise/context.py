@@ -19,7 +19,7 @@ import numpy as np
 from simroad.camera.codes import IS_GROUND, SKY
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.mesh import Mesh
-from simroad.camera.render import VehicleBox
+from simroad.camera.vehicles import VehicleBox
 from simroad.core.validation import check_finite_number, check_in_range
 from simroad.errors import InvalidParameterError
 

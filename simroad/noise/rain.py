@@ -64,11 +64,12 @@ import cv2
 import numpy as np
 
 from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER
+from simroad.core.constants import WATER_N
 from simroad.core.validation import check_choice, check_in_range
 from simroad.noise import _particles as pt
 from simroad.noise._arrays import gray3, material_weights
 from simroad.noise._geometry import ViewGeometry, view_geometry
-from simroad.noise._particle_field import ParticleField, sample_field
+from simroad.noise._particle_field import X_NEAR_M, ParticleField, sample_field
 from simroad.noise.context import FrameState
 from simroad.noise.fog import koschmieder
 from simroad.noise.model import Limit, Params
@@ -88,10 +89,8 @@ __all__ = [
 MP_N0 = 8000.0  # m^-3 mm^-1
 LUMA = np.array([0.2126, 0.7152, 0.0722])  # linear-light luminance weights (Rec. 709)
 D_RANGE_MM = (0.5, 7.0)
-WATER_N = 1.333
 _R_E = 0.066
 _R_I = 1.0 - (1.0 - _R_E) / WATER_N**2
-X_NEAR_M = 0.6  # free-falling drops start beyond the windscreen
 SKY_PATH_M = 1000.0  # depth of rain the sky is seen through
 _DARKEN = {ASPHALT: 1.0, MARKING: 1.0, SHOULDER: 0.8, ROADSIDE: 0.5}
 _MIRROR = {ASPHALT: 1.0, MARKING: 0.8, SHOULDER: 0.3}

@@ -57,7 +57,7 @@ from simroad.core.validation import check_in_range
 from simroad.noise import _particles as pt
 from simroad.noise._arrays import gray3, material_weights, rgb_scalar, smoothstep
 from simroad.noise._geometry import ego_to_world, view_geometry
-from simroad.noise._particle_field import ParticleField, sample_field
+from simroad.noise._particle_field import X_NEAR_M, ParticleField, sample_field
 from simroad.noise.context import FrameState
 from simroad.noise.fog import koschmieder
 from simroad.noise.model import Limit, Params
@@ -75,7 +75,6 @@ __all__ = [
 
 D_RANGE_MM = (1.0, 5.0)
 SIZE_SLOPE_PER_MM = 0.8
-X_NEAR_M = 0.6
 SNOW_RGB = np.array([0.80, 0.82, 0.86], dtype=np.float32)  # linear, slightly blue
 _BESIDE = {ROADSIDE: 1.0, SHOULDER: 1.0}
 _ROAD_TOO = {ROADSIDE: 1.0, SHOULDER: 1.0, ASPHALT: 1.0, MARKING: 1.0}
