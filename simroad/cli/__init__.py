@@ -1,8 +1,5 @@
-"""The ``simroad`` command line (a thin layer over the library)."""
+"""The ``simroad`` command line (a thin layer over the library): :func:`simroad.cli.main.main`.
 
-from __future__ import annotations
-
-from simroad.cli.main import main
-from simroad.cli.parser import build_parser
-
-__all__ = ["build_parser", "main"]
+The parser with every command is :func:`simroad.cli.parser.build_parser`; this package
+imports neither, so that ``simroad --help`` loads no simulator.
+"""

@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Sequence
 
-from simroad.cli.parser import build_parser
+from simroad.cli.index import COMMANDS, command_parser
 from simroad.errors import SimroadError
 
 __all__ = ["main"]
@@ -20,7 +20,17 @@ __all__ = ["main"]
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line on ``argv`` (default ``sys.argv[1:]``); return the exit status."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:  # no command, --help or a wrong one: the summaries answer
+        parser, sub = command_parser()
+        for name, summary in COMMANDS.items():
+            sub.add_parser(name, help=summary)
+    else:
+        # The full parser reads its defaults from the library (the simulator, scikit-learn):
+        # built only when a command runs, so that ``simroad --help`` answers at once.
+        from simroad.cli.parser import build_parser
+
+        parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help exits 0 as usual; a bad value returns 2

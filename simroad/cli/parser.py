@@ -14,6 +14,7 @@ from typing import Any
 from simroad.cli import commands
 from simroad.cli import types as T
 from simroad.cli.env_options import add_env_options, default_of, names
+from simroad.cli.index import COMMANDS, command_parser
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.core.names import NOISE_NAMES, TRAIN_SEEDS
 from simroad.envs.config import RoadCamConfig
@@ -52,7 +53,7 @@ def _shown(value: Any) -> str:
 def _add_frames(sub: Any) -> None:
     p = sub.add_parser(
         "frames",
-        help="export camera frames and ground-truth road masks",
+        help=COMMANDS["frames"],
         description="Drive the ground-truth autopilot and write frame_NNNN.png, road_NNNN.png (GT 0/255) and meta.json (camera intrinsics, pose per frame).",
     )
     add_env_options(p, RoadCamConfig)
@@ -96,7 +97,7 @@ def _add_detector_flags(p: Any) -> None:
 def _add_episode(sub: Any) -> None:
     p = sub.add_parser(
         "episode",
-        help="run one closed-loop episode and score it",
+        help=COMMANDS["episode"],
         description="Drive one episode: the camera frame goes to the driver (the road detector + lane keeping, or the oracle on the ground-truth mask); the episode is scored on the mask (FNR/FPR) and on safety. Exit status 1 if a --require fails.",
     )
     add_env_options(p, EpisodeSpec)
@@ -148,7 +149,7 @@ def _add_episode(sub: Any) -> None:
 def _add_ablate(sub: Any) -> None:
     p = sub.add_parser(
         "ablate",
-        help="run an ablation sweep (resumable) and write its report",
+        help=COMMANDS["ablate"],
         description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv/json/md (means with 95 % bootstrap or Clopper-Pearson intervals), paired.csv/json (filters vs none in the same worlds and seeds), error_rates.png, safety.png and paired.png are written.",
     )
     d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
@@ -218,7 +219,7 @@ def _add_ablate(sub: Any) -> None:
 
     p = sub.add_parser(
         "report",
-        help="rebuild a sweep's tables and figures from results.jsonl",
+        help=COMMANDS["report"],
         description="Rebuild summary.csv, summary.md, summary.json, paired.csv, paired.json, error_rates.png, safety.png and paired.png from DIR/results.jsonl (the same file gives the same report, byte for byte).",
     )
     p.add_argument("dir", type=T.input_dir(), help="the sweep's output directory")
@@ -228,7 +229,7 @@ def _add_ablate(sub: Any) -> None:
 def _add_detector(sub: Any) -> None:
     p = sub.add_parser(
         "train-detector",
-        help="train a road detector like the shipped one",
+        help=COMMANDS["train-detector"],
         description="Render clean frames of every scenario (one world palette per seed), fit the default SVM detector and save it as npz (no pickle) to --out; the destination is checked before training. Use the file with RoadDetector.load(PATH) or evaluate-detector --model PATH.",
     )
     p.add_argument("--out", default=DEFAULT_MODEL_FILE, help=f"output .npz (default: ./{DEFAULT_MODEL_FILE})")
@@ -258,7 +259,7 @@ def _add_detector(sub: Any) -> None:
     }
     p = sub.add_parser(
         "evaluate-detector",
-        help="score the detector per filter setting (FNR, FPR, IoU, F1)",
+        help=COMMANDS["evaluate-detector"],
         description="Score the shipped detector (or --model) on rendered frames (held-out seeds) or on a folder of real images and masks, for each filter setting; also score the filters' own masks against the ground-truth noise masks.",
     )
     p.add_argument(
@@ -342,7 +343,7 @@ def _add_detector(sub: Any) -> None:
     variant = default_of(apply_filters, "variant")
     p = sub.add_parser(
         "filter-effect",
-        help="does each filter earn its place? FNR/FPR with and without it on its weather",
+        help=COMMANDS["filter-effect"],
         description="Render held-out worlds of every scenario under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels, and the difference of FNR + FPR (with - without, points) with its 95 % interval from a bootstrap of the episodes in pairs.",
     )
     p.add_argument(
@@ -377,7 +378,7 @@ def _add_detector(sub: Any) -> None:
 def _add_pictures(sub: Any) -> None:
     p = sub.add_parser(
         "figure",
-        help="draw a documentation figure",
+        help=COMMANDS["figure"],
         description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery), 'places' (the same places clean and in low sun), 'friction' (braking distance and cornering speed vs weather) or 'windscreen' (drops on the glass and a wiper pass).",
     )
     p.add_argument("what", choices=("camera", "weather", "places", "friction", "windscreen"), help="which figure")
@@ -391,7 +392,7 @@ def _add_pictures(sub: Any) -> None:
     d = {k: default_of(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
     p = sub.add_parser(
         "videos",
-        help="write the demo's videos: one detector episode per noise",
+        help=COMMANDS["videos"],
         description="Drive one short episode per noise with the detector and all filters and write OUT/NOISE.gif: the camera view with the predicted road mask (green), the ground-truth outline (yellow) and a bird's-eye inset with the trajectory.",
     )
     p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
@@ -412,11 +413,7 @@ def _add_pictures(sub: Any) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``simroad`` argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(
-        prog="simroad", description="Closed-loop camera road detection testbed in bad weather."
-    )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=T.GivenParser)
-    sub.required = True
+    parser, sub = command_parser(T.GivenParser)
     for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures):
         add(sub)
     return parser

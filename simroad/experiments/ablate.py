@@ -139,7 +139,7 @@ def run_ablation(
     top-level function of an importable module (with ``workers > 1`` the workers
     start from a fork server and import it; not a notebook's function). The output directory is locked for the whole run
     (:class:`~simroad.experiments.outlock.OutputLock`): a second sweep on it raises
-    :class:`DirectoryLocked` (a :class:`SimroadError`) naming the holder's PID.
+    :class:`~simroad.errors.OutputInUseError` naming the holder's PID.
     """
 
     if not isinstance(grid, AblationGrid):

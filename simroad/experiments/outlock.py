@@ -3,7 +3,7 @@
 The lock is the file ``DIR/sweep.lock``, created atomically (a fully written temporary
 file hard-linked into place, or ``O_CREAT | O_EXCL`` where hard links are not
 supported) and holding the holder's PID, host name, start time and command line. A
-second sweep on the same directory is refused with :class:`DirectoryLocked` naming
+second sweep on the same directory is refused with :class:`~simroad.errors.OutputInUseError` naming
 the holder. A lock left by a process that has died on this host is taken over (with
 a message); a lock held from another host is never taken over automatically — the
 message says how to remove it. Works on a filesystem shared between machines as long
@@ -25,15 +25,11 @@ from typing import Any
 
 from simroad.errors import OutputInUseError
 
-__all__ = ["LOCK_NAME", "DirectoryLocked", "OutputLock"]
+__all__ = ["LOCK_NAME", "OutputLock"]
 
 LOCK_NAME = "sweep.lock"
 #: A takeover guard older than this (s) was left by a process that died taking over.
 _GUARD_STALE_S = 10.0
-
-
-class DirectoryLocked(OutputInUseError):
-    """Another live process holds the output directory's lock."""
 
 
 def _proc_start(pid: int) -> str | None:
@@ -80,7 +76,7 @@ class OutputLock:
 
     Raises
     ------
-    DirectoryLocked
+    OutputInUseError
         On ``acquire`` when a live process holds the lock.
     """
 
@@ -136,7 +132,7 @@ class OutputLock:
         return {}
 
     def acquire(self) -> OutputLock:
-        """Take the lock, taking over a stale one; raise :class:`DirectoryLocked` if held."""
+        """Take the lock, taking over a stale one; raise :class:`~simroad.errors.OutputInUseError` if held."""
         self._token = uuid.uuid4().hex
         while True:
             if self._create():
@@ -147,7 +143,7 @@ class OutputLock:
             if self._stale(holder):
                 self._take_over(holder)
                 continue
-            raise DirectoryLocked(self._refusal(holder))
+            raise OutputInUseError(self._refusal(holder))
 
     def _stale(self, holder: dict[str, Any]) -> bool:
         pid, host = holder.get("pid"), holder.get("host")

@@ -65,7 +65,6 @@ import functools
 
 import cv2
 import numpy as np
-from scipy.optimize import isotonic_regression
 
 from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_in_range
@@ -87,6 +86,7 @@ from simroad.filters._kernels import (
     level_codes,
     median,
 )
+from simroad.filters._plane_kernels import isotonic_increasing
 
 __all__ = ["remove_haze"]
 
@@ -151,7 +151,8 @@ def _dehaze_rows(p: np.ndarray, out: np.ndarray, n: int, gain: np.ndarray, lift:
 
 def _near_veil(floor: np.ndarray, clear_floor: float) -> bool:
     """Whether the veil reaches the near ground: the least-squares fit of the row floor
-    that never falls upwards (``scipy.optimize.isotonic_regression``) rises above
+    that never falls upwards (isotonic regression,
+    :func:`~simroad.filters._plane_kernels.isotonic_increasing`) rises above
     ``clear_floor`` on the lower half of the rows.
 
     A veil ``1 - exp(-beta d)`` grows with distance, so the floor of a veiled frame
@@ -160,7 +161,7 @@ def _near_veil(floor: np.ndarray, clear_floor: float) -> bool:
     which must average them with every row above. Of the lower half's rows the fit is
     highest at the top one, the middle row of the frame: the test reads that row.
     """
-    fit = isotonic_regression(floor[::-1].astype(np.float64), increasing=True).x[::-1]
+    fit = isotonic_increasing(np.ascontiguousarray(floor[::-1], dtype=np.float64))[::-1]
     return bool(fit[floor.shape[0] // 2] > clear_floor)
 
 

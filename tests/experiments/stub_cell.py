@@ -44,8 +44,8 @@ def contender(out: str, grid, start, conn) -> None:
     import traceback
 
     from simroad import SimroadError
+    from simroad.errors import OutputInUseError
     from simroad.experiments.ablate import run_ablation
-    from simroad.experiments.outlock import DirectoryLocked
 
     global DELAY_S
     try:
@@ -53,7 +53,7 @@ def contender(out: str, grid, start, conn) -> None:
         start.wait(timeout=30)
         run_ablation(grid, out, workers=1, progress=False, cell_fn=stub_cell)
         result = ("done", "")
-    except DirectoryLocked as exc:
+    except OutputInUseError as exc:
         result = ("locked", str(exc))
     except SimroadError as exc:
         result = ("refused", str(exc))

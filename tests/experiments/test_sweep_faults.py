@@ -15,9 +15,10 @@ from pathlib import Path
 import pytest
 
 from simroad import SimroadError
+from simroad.errors import OutputInUseError
 from simroad.experiments.ablate import TEST_CELL_FN_ENV, run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
-from simroad.experiments.outlock import LOCK_NAME, DirectoryLocked, OutputLock
+from simroad.experiments.outlock import LOCK_NAME, OutputLock
 from simroad.experiments.results import read_results
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -44,7 +45,7 @@ def test_a_second_lock_is_refused_naming_the_holder_and_the_way_out(tmp_path):
     with OutputLock(tmp_path):
         holder = json.loads((tmp_path / LOCK_NAME).read_text())
         assert holder["pid"] == os.getpid() and holder["host"] == socket.gethostname() and holder["started"]
-        with pytest.raises(DirectoryLocked) as err:
+        with pytest.raises(OutputInUseError) as err:
             OutputLock(tmp_path).acquire()
         msg = str(err.value)
         assert f"PID {os.getpid()}" in msg and f"kill -INT {os.getpid()}" in msg and LOCK_NAME in msg
@@ -67,7 +68,7 @@ def test_a_stale_lock_of_a_dead_process_is_taken_over_with_a_message(tmp_path):
 def test_a_lock_held_from_another_host_is_never_taken_over(tmp_path):
     info = {"pid": _dead_pid(), "host": "another-machine", "started": "now", "token": "x"}
     (tmp_path / LOCK_NAME).write_text(json.dumps(info))
-    with pytest.raises(DirectoryLocked, match="on host another-machine"):
+    with pytest.raises(OutputInUseError, match="on host another-machine"):
         OutputLock(tmp_path).acquire()
     assert json.loads((tmp_path / LOCK_NAME).read_text()) == info
 
@@ -75,7 +76,7 @@ def test_a_lock_held_from_another_host_is_never_taken_over(tmp_path):
 def test_the_lock_is_taken_before_grid_json_is_read_and_released_after_a_failure(tmp_path):
     (tmp_path / "grid.json").write_text("not json")
     with OutputLock(tmp_path):
-        with pytest.raises(DirectoryLocked):  # not the damaged grid.json: the lock comes first
+        with pytest.raises(OutputInUseError):  # not the damaged grid.json: the lock comes first
             run_ablation(GRID_A, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
     assert (tmp_path / "grid.json").read_text() == "not json"
     with pytest.raises(SimroadError, match=r"grid\.json' is damaged"):

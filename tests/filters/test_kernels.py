@@ -20,6 +20,7 @@ from simroad.filters._kernels import (
     percentile_below,
     quantize_take,
 )
+from simroad.filters._plane_kernels import isotonic_increasing
 from simroad.filters._relight_kernels import edge_pairs
 from simroad.filters.haze import _dehaze_rows, _row_floor
 
@@ -526,3 +527,31 @@ def test_area_quarter_is_cv2_resize_area():
     planes = [rng.random((720, 1280), dtype=np.float32) for _ in range(3)]
     for got, p in zip(gate_preview(planes), planes):  # the pipeline's preview of a 1280x720 frame
         np.testing.assert_array_equal(got, cv2.resize(p, (320, 180), interpolation=cv2.INTER_AREA))
+
+
+@pytest.mark.parametrize("kind", ["uniform", "ties", "walk", "sorted", "reversed", "one"])
+def test_isotonic_increasing_is_scipys_isotonic_regression(kind):
+    from scipy.optimize import isotonic_regression  # the reference, not a dependency of the filters
+
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = 1 if kind == "one" else int(rng.integers(2, 720))
+        if kind == "uniform":
+            y = rng.random(n)
+        elif kind == "ties":
+            y = np.round(rng.random(n) * 12) / 12
+        elif kind == "walk":
+            y = np.cumsum(rng.normal(size=n))
+        elif kind in ("sorted", "reversed"):
+            y = np.sort(rng.random(n))
+            y = y[::-1].copy() if kind == "reversed" else y
+        else:
+            y = rng.random(1)
+        fit = isotonic_increasing(y)
+        assert np.array_equal(fit, isotonic_regression(y).x)
+        assert np.all(np.diff(fit) >= 0)
+
+
+def test_isotonic_increasing_by_hand():
+    # [3, 1] pool to their mean 2; 2 joins them (not above 2); 5 stays; [4] after 5 pools to 4.5
+    assert isotonic_increasing(np.array([3.0, 1.0, 2.0, 5.0, 4.0])).tolist() == [2.0, 2.0, 2.0, 4.5, 4.5]
