@@ -1,4 +1,4 @@
-"""The camera sensor: the last stage of the camera, after the weather (DESIGN.md §8).
+"""The camera sensor: the last stage of the camera, after the weather acts on scene radiance.
 
 The rendered (and weathered) sRGB frame is decoded to linear scene radiance, then
 goes through what a real automotive camera does to it, in physical order:

@@ -274,7 +274,7 @@ def normalize_rng(rng: np.random.Generator | int | None, *, name: str = "rng") -
     )
 
 
-# --- output paths (issue 13): checked before any work, nothing created -------------
+# --- output paths: checked before any work, nothing created -------------------------
 
 
 def _nearest_existing(p: Path) -> Path:

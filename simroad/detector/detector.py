@@ -142,14 +142,12 @@ class RoadDetector(BaseEstimator):
     ``fit`` applies the configured filters to the training images first, so the SVM
     sees what ``predict`` will see.
 
-    Measured with the shipped model (``simroad train-detector``: 12 clean frames of
-    every scenario in each of the worlds 0-15, 16000 training pixels, non-road weight
-    2) on the 300 clean frames of ``simroad evaluate-detector`` (held-out worlds
-    100-104, all three scenarios): pooled FNR 1.8 %, FPR 1.7 % without filters; FNR
-    4.5 %, FPR 1.2 % with all three. Classifying by the lookup table is two orders
-    of magnitude faster than the literal per-pixel ``SVC.predict``, whose cost grows
-    with the number of support vectors; with all three filters the filters cost
-    several times the classification. ``make bench`` (``benchmarks/bench_detector.py``)
+    The shipped model (``simroad train-detector``: 12 clean frames of every scenario
+    in each of the worlds 0-15, 16000 training pixels, non-road weight 2) is scored by
+    ``simroad evaluate-detector`` on held-out worlds; the README gives its FNR and FPR.
+    Classifying by the lookup table is two orders of magnitude faster than the literal
+    per-pixel ``SVC.predict``, whose cost grows with the number of support vectors;
+    with all three filters the filters cost several times the classification. ``make bench`` (``benchmarks/bench_detector.py``)
     measures both on the machine at hand.
     """
 

@@ -17,7 +17,7 @@ from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
 from simroad.errors import InvalidParameterError
 from simroad.noise import MODELS, WindscreenParams, parse_noise
 
-__all__ = ["RoadCamConfig"]  # SCENARIO_NAMES re-exported from simroad.envs.scenarios
+__all__ = ["RoadCamConfig"]
 
 _CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
 
@@ -30,7 +30,7 @@ class RoadCamConfig:
     ----------
     scenario : str
         A key of :data:`simroad.envs.scenarios.SCENARIOS` (``racetrack``, ``highway``,
-        ``winding``).
+        ``winding``, ``town``).
     camera : CameraConfig
         Image size, field of view, mounting (see :class:`CameraConfig`).
     noise : str

@@ -336,7 +336,7 @@ class RoadCamEnv(gym.Env):
                 motion_m=frame.motion_m,
             )
             rgb, masks = self.weather.apply(frame.rgb, ctx)
-        if self.sensor is not None:  # the last stage of the camera (DESIGN.md §8)
+        if self.sensor is not None:  # the last stage of the camera, after the weather (docs/camera.md)
             # The renderer blurred the ground by the exposure's travel; the sensor
             # smears what stands on it.
             rgb = self.sensor.apply(rgb, speed_m_s=speed, depth=frame.depth, face_id=frame.face_id)

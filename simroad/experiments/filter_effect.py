@@ -6,7 +6,7 @@ for every seed under the noise (severity 0.7 by default) with
 :func:`~simroad.experiments.frames.collect_frames`, runs the detector without filters
 and with the given ones, and pools FNR and FPR (paper eqs. 32-33) over the camera's
 ground pixels (``valid``): the sky is never road, and an overcast sky would otherwise
-dominate the FPR. :func:`filter_effect_table` scores the issue's protocol -- each
+dominate the FPR. :func:`filter_effect_table` scores the protocol -- each
 filter on its matching noise, and all filters on every noise -- rendering each noise
 once.
 
@@ -37,7 +37,7 @@ from simroad.metrics.mask import MaskScore, rates_from_counts
 
 __all__ = ["FILTER_NOISE", "filter_effect", "filter_effect_table", "format_filter_effect"]
 
-#: The weather each filter is meant to remove (the issue's protocol).
+#: The weather each filter is meant to remove (the protocol of :func:`filter_effect_table`).
 FILTER_NOISE = {name: spec.weathers for name, spec in FILTER_REGISTRY.items()}
 _NOISES = tuple(noise for weathers in FILTER_NOISE.values() for noise in weathers)
 
@@ -167,7 +167,7 @@ def filter_effect_table(
     detector_factory: DetectorFactory | None = None,
     cache: dict | None = None,
 ) -> list[dict]:
-    """The issue's protocol: each filter on its matching noise, then all filters on
+    """The protocol: each filter on its matching noise, then all filters on
     each noise. One :func:`filter_effect` row per case, each noise rendered once.
 
     ``noises`` restricts the rows to some of ``shadow``, ``rain``, ``snow``,

@@ -31,32 +31,20 @@ The statistics are taken on every row at a quarter of the width. ``t_min`` caps 
 gain ``1 / t`` near the horizon, where the floor is also lifted by the roadside
 blending into the road.
 
-Measured (``simroad filter-effect``, held-out worlds, README): in snow the veil, not the
-flakes, was most of the detector's FNR, and this step turns the rain/snow filter from a
-loss into a gain at every severity. In rain it costs some FPR -- the wet road's
-reflection of the sky also brightens the far rows and is removed as if it were haze.
+In snow the veil, not the flakes, is most of the detector's FNR; in rain the step
+costs some FPR, since the wet road's reflection of the sky also brightens the far rows
+and is removed as if it were haze (``simroad filter-effect`` measures both; README).
 :func:`remove_haze` is the first step of the rain/snow filter's improved variant
-(:func:`simroad.filters.apply_filters`), with ``tolerance=0.045``: in issue 14's world
-clear weather is a bright overcast day whose far rows rise by the roadside's blending
-and a little aerial perspective, and the default tolerance read that as haze (clean
-validation frames, worlds 200-203: FNR 4.7 -> 6.0 %). At 0.045 clean frames keep FNR
-4.7 % and FPR 1.7 %, and the filter still lowers FNR + FPR in rain and snow at 0.8
-(27.1 -> 21.2 and 17.9 -> 13.0 points).
+(:func:`simroad.filters.apply_filters`), with ``tolerance=0.045``: simroad's clear
+weather includes bright overcast days whose far rows rise a little by the roadside's
+blending and aerial perspective, which a smaller tolerance reads as haze.
 
-**The near-veil gate** (issue 16: a filter does nothing where its weather is absent).
-Clear weather in issue 14's world is overcast, so the blue-sky test passes it, and the
-floor's running maximum read a pale thing across a few near rows (a white car's flank,
-the road narrowing between pale verges) as a veil over every row above: the step acted
-on 104 of 144 clean validation frames (worlds 200-202, all four scenarios) and raised
-the detector's FPR from 0.92 to 1.08 % with all filters. The step now acts only where
-the monotone (isotonic) fit of the floor rises above the tolerance on the lower half of
-the rows (:func:`_near_veil`): a veil grows with distance from the bottom row up, a
-bump does not lift a fit that must average it with every row above. On the same
-frames, detector FNR + FPR (%) without filters -> all filters before -> with the gate:
-clear 5.83 -> 6.03 -> 5.83 (every clean frame returned as it is), rain 0.4 11.56 ->
-9.08 -> 10.35, snow 0.4 14.35 -> 12.00 -> 12.27, rain 0.8 29.00 -> 19.87 -> 21.96, snow
-0.8 21.06 -> 16.80 -> 17.02: part of the gain in rain is given up for clear weather's
-frames left exactly as they are.
+**The near-veil gate**: a filter does nothing where its weather is absent. The step
+acts only where the monotone (isotonic) fit of the row floor rises above the tolerance
+on the lower half of the rows (:func:`_near_veil`). A veil grows with distance from the
+bottom row up; a pale thing across a few near rows (a white car's flank, the road
+narrowing between pale verges) does not lift a fit that must average it with every row
+above, so such clean frames are returned exactly as they are.
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from simroad.core.validation import (
 from simroad.errors import SimroadError
 
 
-# --- check_array and the finite-value message (issue 13, models) ---------------------------------
+# --- check_array and the finite-value message ---------------------------------------------
 def test_check_array_returns_valid_arrays_uncopied():
     a = np.linspace(-5, 5, 12, dtype=np.float32).reshape(3, 4)
     assert check_array("x", a, ndim=2) is a

@@ -1,4 +1,4 @@
-"""Closed loop with tyre–road friction (issue 17): the oracle slows down for the grip
+"""Closed loop with tyre–road friction: the oracle slows down for the grip
 it has and stays on winding roads in rain and snow; a car that does not, slides off."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Every exported function of simroad.filters refuses bad arrays by name (issue 13, item 9).
+"""Every exported function of simroad.filters refuses bad arrays by name.
 
 The table is keyed by ``simroad.filters.__all__``: an exported callable without an
 entry (or a reason it takes no arrays) fails :func:`test_every_export_has_an_entry`,

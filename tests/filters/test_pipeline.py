@@ -108,7 +108,7 @@ def test_check_filters_and_variants():
     assert check_filters("light") == ("light",) and check_filters(None) == ()
     with pytest.raises(SimroadError, match="expected one of"):
         check_filters(["shadows"])
-    with pytest.raises(SimroadError, match=r"^variant: unknown value 'better'"):  # its own parameter's name (issue 13)
+    with pytest.raises(SimroadError, match=r"^variant: unknown value 'better'"):  # its own parameter's name
         apply_filters(_scene(), ("shadow",), variant="better")
     with pytest.raises(SimroadError, match=r"^filter_variant"):
         check_variant("better")

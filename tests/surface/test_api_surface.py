@@ -1,4 +1,4 @@
-"""The public Python surface, walked the way issue 13 did: every field of the typed
+"""The public Python surface, walked whole: every field of the typed
 configs and every public function of simroad.envs, .noise, .control, .metrics and
 .experiments (plus the filters' and detector's existing checks), each given a wrong
 type, an out-of-range value and, where a file is read, a malformed file. Each must
