@@ -41,7 +41,7 @@ from simroad.camera._sensor_ops import (
     vignetting_map,
 )
 from simroad.camera.geometry import PinholeCamera
-from simroad.core.radiometry import srgb_to_linear
+from simroad.core.radiometry import DECODE_TABLE, srgb_to_linear
 from simroad.core.validation import check_bool, check_in_range, check_int_in_range
 from simroad.errors import InvalidParameterError
 
@@ -271,7 +271,7 @@ def apply_sensor(
             lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
             foe, inv_cos = float(camera.horizon_row), inv_cos_bearing(w, fx, cx)
             if face_id is None:  # every pixel blurred: the whole frame is linear
-                decode(frame, _DECODE_LUT, lin)
+                decode(frame, DECODE_TABLE, lin)
                 radial_blur_depth(lin, d, _all_pixels(h, w), False, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX)
                 frame = lin
             else:
@@ -283,7 +283,7 @@ def apply_sensor(
                 ids = np.ascontiguousarray(ids)
                 near = near_edge_maps(ids) if face_share(ids) >= NEAR_MAPS_FROM_SHARE else _NO_NEAR
                 rows = radial_blur_frame(
-                    frame, _DECODE_LUT, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
+                    frame, DECODE_TABLE, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
                 )
                 blurred = (lin, rows)
     full = float(2**params.adc_bits - 1)
@@ -304,7 +304,7 @@ def apply_sensor(
     top = min(int(params.ae_roi_top * h), h - 1)  # the metering window: rows top .. h-1
     total = expose_frame(
         frame,
-        _DECODE_LUT,
+        DECODE_TABLE,
         vig,
         wb,
         (gain * full, full),
@@ -339,9 +339,6 @@ def _all_pixels(h: int, w: int) -> np.ndarray:
     ids = np.arange(h * w, dtype=np.int32).reshape(h, w)
     ids.flags.writeable = False
     return ids
-
-
-_DECODE_LUT = srgb_to_linear(np.arange(256, dtype=np.uint8).reshape(1, 256, 1).repeat(3, axis=2))[0, :, 0].copy()
 
 
 _NEUTRAL = np.ones(3, np.float32)

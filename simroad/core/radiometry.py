@@ -22,12 +22,13 @@ import numpy as np
 from simroad.core.validation import check_int_in_range
 from simroad.errors import InvalidParameterError
 
-__all__ = ["GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
+__all__ = ["DECODE_TABLE", "GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
 
 GAMMA = 2.2
 MASK_THRESHOLD = 8
 
-_DECODE_LUT = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.float32)
+#: sRGB level (0..255) -> linear radiance, float32 (256,): the decoding of a uint8 frame.
+DECODE_TABLE = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.float32)
 
 
 def _check_frame(name: str, image: object, dtypes: tuple[str, ...]) -> None:
@@ -56,7 +57,7 @@ def srgb_to_linear(image: np.ndarray) -> np.ndarray:
     """
     _check_frame("image", image, ("uint8", "float32", "float64"))
     if image.dtype == np.uint8:
-        return cv2.LUT(image, _DECODE_LUT)
+        return cv2.LUT(image, DECODE_TABLE)
     return np.power(image.astype(np.float32), GAMMA, dtype=np.float32)
 
 

@@ -23,6 +23,7 @@ import cv2
 import numpy as np
 
 from simroad.camera import CameraConfig, CameraRenderer, PinholeCamera, VehicleBox, WorldRaster
+from simroad.core.names import NOISE_NAMES
 from simroad.core.validation import check_int_in_range, check_output_file
 from simroad.errors import InvalidParameterError
 from simroad.experiments.scene import sample_context, sample_scene
@@ -33,7 +34,7 @@ from simroad.noise.windscreen import WindscreenModel
 
 __all__ = ["GALLERY_NOISES", "GALLERY_SEVERITIES", "render_gallery", "render_wiper_sequence"]
 
-GALLERY_NOISES = ("rain", "snow", "shadow", "glare", "fog")
+GALLERY_NOISES = tuple(name for name in NOISE_NAMES if name != "clear")
 GALLERY_SEVERITIES = (1 / 3, 2 / 3, 1.0)
 
 
