@@ -234,19 +234,30 @@ class RoadCamEnv(gym.Env):
         cv2.drawContours(out, contours, -1, (255, 230, 0), 1)
         return out
 
-    def render_bev(self, *, size: tuple[int, int] = (240, 320), metres_per_px: float = 0.25) -> np.ndarray:
-        """Bird's-eye view of the world around the ego (heading up), uint8 (H, W, 3)."""
+    def render_bev(
+        self, *, size: tuple[int, int] = (240, 320), metres_per_px: float = 0.25
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Bird's-eye view of the world around the ego, heading up, and its road mask.
+
+        The same as :func:`simroad.camera.render_bev` of this episode's world at the
+        ego's pose, with the other vehicles: ``size`` is ``(width, height)`` in pixels,
+        ``metres_per_px`` the ground resolution.
+
+        Returns
+        -------
+        rgb : ndarray, uint8, (H, W, 3)
+        road_mask : ndarray, bool, (H, W)
+        """
         if self.world is None:
             raise ResetNeededError("render_bev() called before reset().")
         if isinstance(size, (str, bytes)) or not isinstance(size, (tuple, list)) or len(size) != 2:
-            raise InvalidParameterError(f"size: expected (height, width) in pixels, got {size!r}.")
+            raise InvalidParameterError(f"size: expected (width, height) in pixels, got {size!r}.")
         size = (check_int_in_range("size[0]", size[0], 8, 4096), check_int_in_range("size[1]", size[1], 8, 4096))
         metres_per_px = check_in_range("metres_per_px", metres_per_px, 0.0, 100.0, low_inclusive=False)
         ego = self._box(self.vehicle, rgb=(255, 255, 255))
-        rgb, _ = render_bev(
+        return render_bev(
             self.world, self._pose(), size=size, metres_per_px=metres_per_px, vehicles=self._others(), ego=ego
         )
-        return rgb
 
     def close(self) -> None:
         self._hw.close()

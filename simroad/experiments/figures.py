@@ -46,7 +46,7 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
         obs, _ = env.reset(seed=seed + row)
         if steps > 0:
             obs, _ = drive_autopilot(env, steps)
-        panels = (obs, env.render(), env.render_bev(size=(120, 240)))
+        panels = (obs, env.render(), env.render_bev(size=(120, 240))[0])
         titles = (f"{scenario}: camera", "ground-truth road outline", "bird's-eye view")
         for ax, img, title in zip(axes[row], panels, titles):
             ax.imshow(img)

@@ -72,7 +72,7 @@ class EpisodeVideo:
         h = frame.shape[0]
         size = (max(32, h * 2 // 5), max(32, h * 3 // 5))
         mpp = 0.5
-        bev = self.env.render_bev(size=size, metres_per_px=mpp)
+        bev, _ = self.env.render_bev(size=size, metres_per_px=mpp)
         self._draw_trail(bev, info["pose"], mpp, behind_m=15.0)
         cv2.rectangle(bev, (0, 0), (size[0] - 1, size[1] - 1), (255, 255, 255), 1)
         frame[: size[1], -size[0] :] = bev

@@ -71,7 +71,7 @@ def rates_from_counts(tp: int, fp: int, fn: int, tn: int) -> dict[str, float]:
     }
 
 
-def error_rates(pred: np.ndarray, gt: np.ndarray, valid: np.ndarray | None = None) -> tuple[float, float]:
+def error_rates(pred: np.ndarray, gt: np.ndarray, valid: np.ndarray | None = None) -> dict[str, float]:
     """False negative and false positive rates of a road mask (paper eqs. 32-33).
 
     Parameters
@@ -81,13 +81,14 @@ def error_rates(pred: np.ndarray, gt: np.ndarray, valid: np.ndarray | None = Non
 
     Returns
     -------
-    fnr : float
-        ``FN / (TP + FN)``: share of road pixels missed; nan without road pixels.
-    fpr : float
-        ``FP / (FP + TN)``: share of non-road pixels called road; nan without any.
+    dict
+        ``{"fnr", "fpr"}``, as :func:`confusion` and :func:`rates_from_counts` return
+        dicts: ``fnr = FN / (TP + FN)``, the share of road pixels missed (nan without
+        road pixels); ``fpr = FP / (FP + TN)``, the share of non-road pixels called
+        road (nan without any).
     """
     c = confusion(pred, gt, valid)
-    return _ratio(c["fn"], c["tp"] + c["fn"]), _ratio(c["fp"], c["fp"] + c["tn"])
+    return {"fnr": _ratio(c["fn"], c["tp"] + c["fn"]), "fpr": _ratio(c["fp"], c["fp"] + c["tn"])}
 
 
 def _nanmean(values: list[float]) -> float:

@@ -103,7 +103,9 @@ def test_render_draws_the_gt_outline():
     obs, _ = env.reset(seed=0)
     img = env.render()
     assert img.shape == obs.shape and not np.array_equal(img, obs)
-    assert env.render_bev().dtype == np.uint8
+    rgb, road = env.render_bev()
+    assert rgb.dtype == np.uint8 and rgb.shape == (320, 240, 3)
+    assert road.dtype == np.bool_ and road.shape == (320, 240) and road.any() and not road.all()
 
 
 def test_unknown_scenario_lists_valid_ones_with_suggestion():

@@ -23,7 +23,9 @@ PRED = np.array(
 
 def test_confusion_and_error_rates_by_hand():
     assert confusion(PRED, GT) == {"tp": 4, "fp": 2, "fn": 2, "tn": 4}
-    fnr, fpr = error_rates(PRED, GT)
+    rates = error_rates(PRED, GT)
+    fnr, fpr = rates["fnr"], rates["fpr"]
+    assert set(rates) == {"fnr", "fpr"}
     assert fnr == pytest.approx(2 / 6) and fpr == pytest.approx(2 / 6)  # FN/(TP+FN), FP/(FP+TN)
 
 
@@ -31,14 +33,15 @@ def test_valid_restricts_the_count():
     valid = np.ones_like(GT)
     valid[0] = False  # drop the first row
     assert confusion(PRED, GT, valid) == {"tp": 2, "fp": 1, "fn": 1, "tn": 4}
-    assert error_rates(PRED, GT, valid) == pytest.approx((1 / 3, 1 / 5))
+    assert error_rates(PRED, GT, valid) == pytest.approx({"fnr": 1 / 3, "fpr": 1 / 5})
 
 
 def test_rates_from_counts_and_undefined_rates():
     r = rates_from_counts(tp=4, fp=2, fn=2, tn=4)
     expect = {"fnr": 1 / 3, "fpr": 1 / 3, "precision": 2 / 3, "recall": 2 / 3, "f1": 8 / 12, "iou": 0.5}
     assert r == pytest.approx(expect)
-    fnr, fpr = error_rates(np.zeros((2, 2), bool), np.zeros((2, 2), bool))  # no road at all
+    rates = error_rates(np.zeros((2, 2), bool), np.zeros((2, 2), bool))  # no road at all
+    fnr, fpr = rates["fnr"], rates["fpr"]
     assert math.isnan(fnr) and fpr == 0.0
 
 
