@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from simroad.core.validation import check_choice
+from simroad.core.validation import check_choice, normalize_rng
 
 __all__ = ["ALBEDO", "AlbedoRange", "draw_albedo"]
 
@@ -76,7 +76,7 @@ ALBEDO: dict[str, AlbedoRange] = {
 }
 
 
-def draw_albedo(name: str, rng: np.random.Generator) -> np.ndarray:
+def draw_albedo(name: str, rng: np.random.Generator | int) -> np.ndarray:
     """One world's albedo of material ``name``: float32 (3,), linear RGB in [0, 1].
 
     Parameters
@@ -86,6 +86,7 @@ def draw_albedo(name: str, rng: np.random.Generator) -> np.ndarray:
     rng : numpy.random.Generator
         Draws the brightness within the range and the tint.
     """
+    rng = normalize_rng(rng)
     check_choice("material", name, tuple(ALBEDO))
     r = ALBEDO[name]
     lo, hi = np.asarray(r.lo), np.asarray(r.hi)

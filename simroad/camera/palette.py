@@ -17,7 +17,7 @@ import numpy as np
 
 from simroad.camera.materials import draw_albedo
 from simroad.core.names import PROFILES
-from simroad.core.validation import check_choice
+from simroad.core.validation import check_choice, normalize_rng
 
 __all__ = ["ROADSIDE_KINDS", "SHOULDER_KINDS", "Palette", "draw_palette"]
 
@@ -97,7 +97,7 @@ def _shoulder_albedo(kind: str, rng: np.random.Generator) -> np.ndarray:
     return draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
 
 
-def draw_palette(rng: np.random.Generator, roadside: str | None = None, *, profile: str = "rural") -> Palette:
+def draw_palette(rng: np.random.Generator | int, roadside: str | None = None, *, profile: str = "rural") -> Palette:
     """Draw the ground materials of one world from ``rng``.
 
     Parameters
@@ -114,6 +114,7 @@ def draw_palette(rng: np.random.Generator, roadside: str | None = None, *, profi
     -------
     Palette
     """
+    rng = normalize_rng(rng)
     check_choice("profile", profile, PROFILES)
     if roadside is not None:
         check_choice("roadside", roadside, ROADSIDE_KINDS)

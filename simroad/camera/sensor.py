@@ -42,7 +42,7 @@ from simroad.camera._sensor_ops import (
 )
 from simroad.camera.geometry import PinholeCamera
 from simroad.core.radiometry import DECODE_TABLE, srgb_to_linear
-from simroad.core.validation import check_bool, check_in_range, check_int_in_range
+from simroad.core.validation import check_bool, check_in_range, check_int_in_range, normalize_rng
 from simroad.errors import InvalidParameterError
 
 __all__ = [
@@ -207,7 +207,7 @@ def apply_sensor(
     rgb: np.ndarray,
     params: SensorParams,
     camera: PinholeCamera,
-    rng: np.random.Generator,
+    rng: np.random.Generator | int,
     *,
     ev: float = 0.0,
     speed_m_s: float = 0.0,
@@ -257,6 +257,7 @@ def apply_sensor(
         Mean exposed linear signal (fraction of full well, before noise, clipped at
         saturation), what the auto-exposure meters.
     """
+    rng = normalize_rng(rng)
     if params.is_identity:
         return rgb.copy(), float(cv2.mean(srgb_to_linear(rgb))[0])
     h, w = rgb.shape[:2]
@@ -374,11 +375,9 @@ class Sensor:
         self._noise: NoiseTile | None = None
         self._work: np.ndarray | None = None
 
-    def reset(self, rng: np.random.Generator) -> None:
+    def reset(self, rng: np.random.Generator | int) -> None:
         """Start an episode: exposure back to nominal, noise field drawn from ``rng``."""
-        if not isinstance(rng, np.random.Generator):
-            raise InvalidParameterError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}.")
-        self._rng = rng
+        self._rng = rng = normalize_rng(rng)
         self.ev = 0.0
         self._settled = not self.params.auto_exposure
         p, c = self.params, self.camera.config

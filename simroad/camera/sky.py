@@ -36,7 +36,7 @@ import numpy as np
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.core.radiometry import linear_to_srgb
-from simroad.core.validation import check_choice, check_in_range
+from simroad.core.validation import check_choice, check_in_range, normalize_rng
 from simroad.errors import InvalidParameterError
 
 __all__ = [
@@ -277,10 +277,11 @@ def sky_image(
     return linear_to_srgb(lin, np.float32) * np.float32(255.0)
 
 
-def draw_sky(rng: np.random.Generator, *, condition: str | None = None) -> SkySpec:
+def draw_sky(rng: np.random.Generator | int, *, condition: str | None = None) -> SkySpec:
     """One world's sky: condition (overcast 70 %, hazy 30 % unless given), a CIE type
     of it, a plausible sun (elevation 15-60 degrees, any azimuth) and a brightness
     factor (0.85-1.15: clouds of varying thickness)."""
+    rng = normalize_rng(rng)
     cond = condition if condition is not None else ("overcast" if rng.random() < 0.7 else "hazy")
     check_choice("condition", cond, tuple(CONDITIONS))
     types = CONDITIONS[cond]

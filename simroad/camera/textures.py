@@ -17,18 +17,20 @@ import numpy as np
 from simroad.camera.lighting import radiance
 from simroad.camera.palette import Palette
 from simroad.core.radiometry import GAMMA, linear_to_srgb
+from simroad.core.validation import normalize_rng
 
 __all__ = ["ground_textures", "periodic_noise", "wear_factor"]
 
 _CRACK_ALBEDO = 0.035  # bitumen crack sealant
 
 
-def periodic_noise(size: int, scale_px: float, rng: np.random.Generator) -> np.ndarray:
+def periodic_noise(size: int, scale_px: float, rng: np.random.Generator | int) -> np.ndarray:
     """Smooth periodic Gaussian noise, float32 (size, size), zero mean, unit std.
 
     White noise low-passed in the Fourier domain with a Gaussian of standard
     deviation ``scale_px`` texels, so the tile wraps seamlessly.
     """
+    rng = normalize_rng(rng)
     white = rng.standard_normal((size, size), dtype=np.float32)
     fy = np.fft.fftfreq(size)[:, None]
     fx = np.fft.rfftfreq(size)[None, :]
@@ -175,13 +177,16 @@ def _encode(albedo: np.ndarray) -> np.ndarray:
     return linear_to_srgb(radiance(np.clip(albedo, 0.0, 1.0).astype(np.float32)))
 
 
-def ground_textures(palette: Palette, size: int, texel_m: float, rng: np.random.Generator) -> dict[str, np.ndarray]:
+def ground_textures(
+    palette: Palette, size: int, texel_m: float, rng: np.random.Generator | int
+) -> dict[str, np.ndarray]:
     """The world's ground textures: name -> uint8 (size, size, 3) sRGB, periodic.
 
     Names: ``roadside``, ``shoulder``, ``asphalt``, ``marking``, ``kerb``,
     ``sidewalk`` (the last two only for the urban profile). ``size`` is in texels of
     ``texel_m`` metres.
     """
+    rng = normalize_rng(rng)
     p = palette
     asphalt = _asphalt(p, size, texel_m, rng)
     out = {"asphalt": asphalt, "marking": _marking(p, asphalt, size, texel_m, rng)}

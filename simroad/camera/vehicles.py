@@ -27,6 +27,7 @@ from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.camera.materials import ALBEDO
 from simroad.camera.mesh import MAX_VERTICES, Mesh
 from simroad.core.radiometry import GAMMA
+from simroad.core.validation import normalize_rng
 
 __all__ = [
     "PAINTS",
@@ -115,8 +116,9 @@ CLEARANCE_FRAC = 0.17  # body bottom, fraction of the height
 BELT_FRAC = 0.62  # body top (the cabin's base), fraction of the height
 
 
-def draw_paint(rng: np.random.Generator) -> tuple[str, np.ndarray]:
+def draw_paint(rng: np.random.Generator | int) -> tuple[str, np.ndarray]:
     """One car's colour: its name and linear RGB albedo (float32 (3,))."""
+    rng = normalize_rng(rng)
     k = int(rng.choice(len(_NAMES), p=_SHARES / _SHARES.sum()))
     p = PAINTS[_NAMES[k]]
     t = rng.random()

@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from simroad.core.validation import IMAGE_DTYPES, check_image, check_mask
+from simroad.core.validation import IMAGE_DTYPES, check_image, check_mask, normalize_rng
 from simroad.errors import InvalidParameterError
 from simroad.filters._common import planes_to_uint8, to_planes
 from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
@@ -66,7 +66,7 @@ def sample_pixels(
     masks: list[np.ndarray],
     filters: tuple[str, ...],
     n_max: int,
-    rng: np.random.Generator,
+    rng: np.random.Generator | int,
     variant: str = "improved",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Balanced random pixels: up to ``n_max / (2 N)`` road and non-road pixels per image.
@@ -74,6 +74,7 @@ def sample_pixels(
     Returns the filtered colours (M, 3) float64 in [0, 1] and their labels (M,) int
     (1 = road).
     """
+    rng = normalize_rng(rng)
     per = max(1, -(-n_max // (2 * len(images))))
     xs, ys = [], []
     for img, msk in zip(images, masks):

@@ -23,6 +23,7 @@ from highway_env.road.lane import AbstractLane, LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
+from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
 from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
@@ -85,7 +86,7 @@ class TownLayout:
 
 
 def generate_town(
-    rng: np.random.Generator,
+    rng: np.random.Generator | int,
     *,
     length_m: float = 800.0,
     lane_width_m: float = 3.25,
@@ -98,6 +99,7 @@ def generate_town(
     of the start, so consecutive cross streets (40-60 m long) never meet. Parking
     strips line the oncoming kerb, and the ego's too with ``ego_side_parking``.
     """
+    rng = normalize_rng(rng)
     blocks: list[Block] = []
     heading, total, limit = 0.0, 0.0, math.radians(max_heading_deg)
     while total < length_m:

@@ -17,6 +17,7 @@ from highway_env.road.lane import CircularLane, LineType, StraightLane
 from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
+from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
 
@@ -39,7 +40,7 @@ class Segment:
 
 
 def generate_segments(
-    rng: np.random.Generator,
+    rng: np.random.Generator | int,
     *,
     length_m: float = 2000.0,
     min_radius_m: float = 45.0,
@@ -59,6 +60,7 @@ def generate_segments(
         Bound on the heading relative to the start, in degrees (< 90 keeps the road
         monotone in x, hence free of self-intersections).
     """
+    rng = normalize_rng(rng)
     segments: list[Segment] = [Segment(float(rng.uniform(60.0, 100.0)))]  # a calm start
     heading, total = 0.0, segments[0].length_m
     limit = math.radians(max_heading_deg)
