@@ -23,7 +23,6 @@ this process only.
 
 from __future__ import annotations
 
-import importlib
 import math
 import os
 import traceback
@@ -41,12 +40,9 @@ from simroad.experiments.pool import Interrupts, run_in_workers
 from simroad.experiments.results import ResultStore  # re-exported here for old imports
 from simroad.filters.pipeline import format_filters
 
-__all__ = ["BACKENDS", "TEST_CELL_FN_ENV", "run_ablation", "run_cell"]
+__all__ = ["BACKENDS", "run_ablation", "run_cell"]
 
 BACKENDS = ("local", "ray")
-#: For tests only: ``module:function`` replacing the default :func:`run_cell` of
-#: :func:`run_ablation` (so that the CLI can run a fast stub episode in a subprocess).
-TEST_CELL_FN_ENV = "SIMROAD_TEST_ONLY_CELL_FN"
 
 
 def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str, Any]] = run_episode) -> dict[str, Any]:
@@ -113,15 +109,6 @@ def _ray(specs: list[EpisodeSpec], workers: int, address: str | None, cell_fn: C
     return run_on_ray(specs, workers=workers, address=address, cell_fn=cell_fn)
 
 
-def _test_cell_fn(default: Callable) -> Callable:
-    target = os.environ.get(TEST_CELL_FN_ENV)
-    if not target:
-        return default
-    module, _, name = target.partition(":")
-    fn: Callable = getattr(importlib.import_module(module), name)
-    return fn
-
-
 def run_ablation(
     grid: AblationGrid,
     out: str | os.PathLike,
@@ -152,8 +139,6 @@ def run_ablation(
     specs = grid.specs()
     if not specs:
         raise InvalidParameterError("grid: it has no cells; give at least one scenario, noise, filter set and seed.")
-    if cell_fn is run_cell:
-        cell_fn = _test_cell_fn(cell_fn)
     ensure_writable_dir("out", out)
     with OutputLock(out):  # before grid.json is read or written
         store = ResultStore(out)

@@ -16,7 +16,7 @@ import pytest
 
 from simroad import SimroadError
 from simroad.errors import OutputInUseError
-from simroad.experiments.ablate import TEST_CELL_FN_ENV, run_ablation
+from simroad.experiments.ablate import run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import LOCK_NAME, OutputLock
 from simroad.experiments.results import read_results
@@ -86,10 +86,8 @@ def test_the_lock_is_taken_before_grid_json_is_read_and_released_after_a_failure
 
 @pytest.mark.slow
 def test_cli_ablate_on_a_locked_directory_exits_2_naming_the_holder(tmp_path):
-    env = dict(
-        os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(HERE)]), **{TEST_CELL_FN_ENV: "stub_cell:stub_cell"}
-    )
-    cmd = [sys.executable, "-m", "simroad", "ablate", "--scenarios", "racetrack", "--noises", "clear", "--filters",
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(HERE)]))
+    cmd = [sys.executable, str(HERE / "stub_cli.py"), "ablate", "--scenarios", "racetrack", "--noises", "clear", "--filters",
            "none", "--seeds", "2", "--steps", "5", "--workers", "1", "--out", str(tmp_path), "--quiet"]  # fmt: skip
     with OutputLock(tmp_path):
         proc = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=120)
@@ -192,9 +190,8 @@ _TRIALS = [pytest.param(0.2, True, id="twice-0.2s-group")] + [
 def test_ctrl_c_twice_ends_the_whole_process_tree_within_3_s_and_rows_stay_valid(tmp_path, second, group):
     out = tmp_path / "sweep"
     grid = AblationGrid(scenarios=("racetrack",), noises=("clear",), filters=("none",), seeds=10, steps=5)
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(HERE)]), SIMROAD_STUB_DELAY_S="0.3",
-               **{TEST_CELL_FN_ENV: "stub_cell:stub_cell"})  # fmt: skip
-    cmd = [sys.executable, "-m", "simroad", "ablate", "--scenarios", "racetrack", "--noises", "clear", "--filters",
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(HERE)]), SIMROAD_STUB_DELAY_S="0.3")
+    cmd = [sys.executable, str(HERE / "stub_cli.py"), "ablate", "--scenarios", "racetrack", "--noises", "clear", "--filters",
            "none", "--seeds", "10", "--steps", "5", "--workers", "2", "--out", str(out), "--quiet"]  # fmt: skip
     err = tmp_path / "stderr.txt"
     with open(err, "w") as fh:
