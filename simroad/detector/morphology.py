@@ -113,6 +113,7 @@ def keep_ego_component(mask: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     mask : ndarray, bool, (H, W)
+        The road pixels, e.g. as the classifier labelled them.
 
     Returns
     -------
@@ -134,6 +135,7 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     mask : ndarray, bool, (H, W)
+        The region whose holes to fill.
 
     Returns
     -------
