@@ -42,7 +42,7 @@ from simroad.camera._sensor_ops import (
 )
 from simroad.camera.geometry import PinholeCamera
 from simroad.core.radiometry import DECODE_TABLE, srgb_to_linear
-from simroad.core.validation import check_bool, check_in_range, check_int_in_range, normalize_rng
+from simroad.core.validation import check_bool, check_fields_in_range, check_int_in_range, normalize_rng
 from simroad.errors import InvalidParameterError
 
 __all__ = [
@@ -145,11 +145,7 @@ class SensorParams:
             "white_balance_error": (0.0, 0.5, "", True),
             "vignetting_exponent": (0.0, 8.0, "", True),
         }
-        for name, (low, high, unit, low_inc) in ranges.items():
-            high_inc = name not in ("ae_target_mean", "ae_roi_top")
-            value = check_in_range(
-                name, getattr(self, name), low, high, unit=unit, low_inclusive=low_inc, high_inclusive=high_inc
-            )
+        for name, value in check_fields_in_range(self, ranges, high_exclusive=("ae_target_mean", "ae_roi_top")).items():
             object.__setattr__(self, name, value)
         for name in ("auto_exposure", "shot_noise", "vignetting", "motion_blur"):
             object.__setattr__(self, name, check_bool(name, getattr(self, name)))

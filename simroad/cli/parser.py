@@ -9,6 +9,7 @@ restates a number.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from typing import Any
 
 from simroad.cli import commands
@@ -50,15 +51,37 @@ def _shown(value: Any) -> str:
     return ",".join(str(v) for v in value) if isinstance(value, (tuple, list)) else f"{value}"
 
 
+def _command(sub: Any, name: str, *, description: str) -> Any:
+    """The subparser of command ``name``, its one-line help from :data:`COMMANDS`."""
+    return sub.add_parser(name, help=COMMANDS[name], description=description)
+
+
+def _add_episode_seed(p: Any, default: int) -> None:
+    """``--seed``: the seed of the (one) episode."""
+    p.add_argument("--seed", type=T.seed(), default=default, help=f"episode seed (default: {default})")
+
+
+def _add_held_out_seeds(p: Any, seeds: Sequence[int]) -> None:
+    """``--seeds`` and ``--seed-start`` of consecutive held-out seeds; by default as
+    many as the library's ``seeds``, from the first of them."""
+    p.add_argument("--seeds", type=_COUNT, default=len(seeds), help=f"number of held-out seeds (default: {len(seeds)})")
+    p.add_argument("--seed-start", type=T.seed(), default=seeds[0], help=f"first seed (default: {seeds[0]})")
+
+
+def _add_quiet(p: Any) -> None:
+    """``--quiet``: no progress bar."""
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def _add_frames(sub: Any) -> None:
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "frames",
-        help=COMMANDS["frames"],
         description="Drive the ground-truth autopilot and write frame_NNNN.png, road_NNNN.png (GT 0/255) and meta.json (camera intrinsics, pose per frame).",
     )
     add_env_options(p, RoadCamConfig)
     d = {k: default_of(export_frames, k) for k in ("seed", "count", "every")}
-    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    _add_episode_seed(p, d["seed"])
     p.add_argument(
         "--count", type=T.int_in(1, 100_000), default=d["count"], help=f"number of frames (default: {d['count']})"
     )
@@ -69,7 +92,7 @@ def _add_frames(sub: Any) -> None:
         help=f"policy steps between frames (default: {d['every']})",
     )
     p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_quiet(p)
     p.set_defaults(func=commands.cmd_frames)
 
 
@@ -95,9 +118,9 @@ def _add_detector_flags(p: Any) -> None:
 
 
 def _add_episode(sub: Any) -> None:
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "episode",
-        help=COMMANDS["episode"],
         description="Drive one episode: the camera frame goes to the driver (the road detector + lane keeping, or the oracle on the ground-truth mask); the episode is scored on the mask (FNR/FPR) and on safety. Exit status 1 if a --require fails.",
     )
     add_env_options(p, EpisodeSpec)
@@ -116,7 +139,7 @@ def _add_episode(sub: Any) -> None:
         help=f"{names(DRIVER_NAMES)} (default: {d['driver']})",
     )
     _add_detector_flags(p)
-    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    _add_episode_seed(p, d["seed"])
     p.add_argument(
         "--steps",
         type=_STEPS,
@@ -147,9 +170,9 @@ def _add_episode(sub: Any) -> None:
 
 
 def _add_ablate(sub: Any) -> None:
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "ablate",
-        help=COMMANDS["ablate"],
         description="Run detectors x filter sets x scenarios x noises x severities x seeds, plus one oracle episode per scenario x noise x severity x seed; results are appended to OUT/results.jsonl as each episode finishes (rerun to resume), then summary.csv/json/md (means with 95 % bootstrap or Clopper-Pearson intervals), paired.csv/json (filters vs none in the same worlds and seeds), error_rates.png, safety.png and paired.png are written.",
     )
     d = {k: _shown(default_of(AblationGrid, k)) for k in commands.ABLATE_GRID_FLAGS}
@@ -214,12 +237,12 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument("--out", type=T.output_dir(), help="output directory")
     p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_quiet(p)
     p.set_defaults(func=commands.cmd_ablate)
 
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "report",
-        help=COMMANDS["report"],
         description="Rebuild summary.csv, summary.md, summary.json, paired.csv, paired.json, error_rates.png, safety.png and paired.png from DIR/results.jsonl (the same file gives the same report, byte for byte).",
     )
     p.add_argument("dir", type=T.input_dir(), help="the sweep's output directory")
@@ -227,9 +250,9 @@ def _add_ablate(sub: Any) -> None:
 
 
 def _add_detector(sub: Any) -> None:
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "train-detector",
-        help=COMMANDS["train-detector"],
         description="Render clean frames of every scenario (one world palette per seed), fit the default SVM detector and save it as npz (no pickle) to --out; the destination is checked before training. Use the file with RoadDetector.load(PATH) or evaluate-detector --model PATH.",
     )
     p.add_argument("--out", default=DEFAULT_MODEL_FILE, help=f"output .npz (default: ./{DEFAULT_MODEL_FILE})")
@@ -257,9 +280,9 @@ def _add_detector(sub: Any) -> None:
         k: default_of(evaluate_detector, k)
         for k in ("settings", "scenarios", "noise", "severity", "seeds", "frames_per_seed")
     }
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "evaluate-detector",
-        help=COMMANDS["evaluate-detector"],
         description="Score the shipped detector (or --model) on rendered frames (held-out seeds) or on a folder of real images and masks, for each filter setting; also score the filters' own masks against the ground-truth noise masks.",
     )
     p.add_argument(
@@ -287,10 +310,7 @@ def _add_detector(sub: Any) -> None:
         default=_shown(d["settings"]),
         help=f"comma-separated filter settings (default: {_shown(d['settings'])})",
     )
-    p.add_argument(
-        "--seeds", type=_COUNT, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
-    )
-    p.add_argument("--seed-start", type=T.seed(), default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    _add_held_out_seeds(p, d["seeds"])
     p.add_argument(
         "--frames",
         type=_COUNT,
@@ -341,9 +361,9 @@ def _add_detector(sub: Any) -> None:
 
     d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}
     variant = default_of(apply_filters, "variant")
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "filter-effect",
-        help=COMMANDS["filter-effect"],
         description="Render held-out worlds of every scenario under each noise and score the shipped detector without filters and with the filter meant for that noise (shadow -> shadow, rain and snow -> rain_snow, glare -> light), then with all filters; FNR and FPR pooled over the ground pixels, and the difference of FNR + FPR (with - without, points) with its 95 % interval from a bootstrap of the episodes in pairs.",
     )
     p.add_argument(
@@ -364,10 +384,7 @@ def _add_detector(sub: Any) -> None:
         default=variant,
         help=f"comma-separated filter variants: {names(FILTER_VARIANTS)} (default: {variant})",
     )
-    p.add_argument(
-        "--seeds", type=_COUNT, default=len(d["seeds"]), help=f"number of held-out seeds (default: {len(d['seeds'])})"
-    )
-    p.add_argument("--seed-start", type=T.seed(), default=d["seeds"][0], help=f"first seed (default: {d['seeds'][0]})")
+    _add_held_out_seeds(p, d["seeds"])
     p.add_argument(
         "--frames", type=_COUNT, default=d["frames"], help=f"frames per scenario and seed (default: {d['frames']})"
     )
@@ -376,9 +393,9 @@ def _add_detector(sub: Any) -> None:
 
 
 def _add_pictures(sub: Any) -> None:
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "figure",
-        help=COMMANDS["figure"],
         description="Draw the README pictures: 'camera' (clean frame, GT outline, BEV), 'weather' (the noise gallery), 'places' (the same places clean and in low sun), 'friction' (braking distance and cornering speed vs weather) or 'windscreen' (drops on the glass and a wiper pass).",
     )
     p.add_argument("what", choices=("camera", "weather", "places", "friction", "windscreen"), help="which figure")
@@ -390,9 +407,9 @@ def _add_pictures(sub: Any) -> None:
     p.set_defaults(func=commands.cmd_figure)
 
     d = {k: default_of(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
-    p = sub.add_parser(
+    p = _command(
+        sub,
         "videos",
-        help=COMMANDS["videos"],
         description="Drive one short episode per noise with the detector and all filters and write OUT/NOISE.gif: the camera view with the predicted road mask (green), the ground-truth outline (yellow) and a bird's-eye inset with the trajectory.",
     )
     p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
@@ -402,12 +419,12 @@ def _add_pictures(sub: Any) -> None:
         default=d["scenario"],
         help=f"{names(SCENARIO_NAMES)} (default: {d['scenario']})",
     )
-    p.add_argument("--seed", type=T.seed(), default=d["seed"], help=f"episode seed (default: {d['seed']})")
+    _add_episode_seed(p, d["seed"])
     p.add_argument("--steps", type=_STEPS, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")
     p.add_argument(
         "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
     )
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_quiet(p)
     p.set_defaults(func=commands.cmd_videos)
 
 

@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from simroad.core.validation import check_in_range, check_int_in_range
+from simroad.core.validation import check_fields_in_range, check_int_in_range
 from simroad.envs.scenarios import ScenarioSpec
 from simroad.errors import InvalidParameterError
 
@@ -163,8 +163,7 @@ class ControllerConfig:
             "outlier_mad_factor": (0.0, 100.0, "", False),
             "grip_use": (0.0, 1.0, "", False),
         }
-        for name, (low, high, unit, low_inclusive) in ranges.items():
-            check_in_range(name, getattr(self, name), low, high, unit=unit, low_inclusive=low_inclusive)
+        check_fields_in_range(self, ranges)
         check_int_in_range("quadratic_min_points", self.quadratic_min_points, 3, 50)
         check_int_in_range("fit_rounds", self.fit_rounds, 1, 20)
         check_int_in_range("coast_frames", self.coast_frames, 0, 100)

@@ -18,7 +18,7 @@ import numpy as np
 from simroad.camera.geometry import PinholeCamera
 from simroad.control.autopilot import STEERING_RANGE_RAD, pure_pursuit_steering
 from simroad.control.config import ControllerConfig
-from simroad.control.lane_estimate import LaneEstimator, PathEstimate, _check_camera_and_config
+from simroad.control.lane_estimate import LaneEstimator, PathEstimate
 from simroad.core.constants import GRAVITY_M_S2
 from simroad.core.validation import check_finite_number
 from simroad.envs.friction import check_mu
@@ -38,14 +38,15 @@ class MaskLaneKeeper:
     ----------
     camera : PinholeCamera
         The calibrated camera that produced the masks (its mounting only).
-    config : ControllerConfig
+    config : ControllerConfig, optional
+        The controller's parameters (default ``ControllerConfig()``), shared with the
+        :class:`~simroad.control.lane_estimate.LaneEstimator` that reads the masks.
     """
 
     def __init__(self, camera: PinholeCamera, config: ControllerConfig | None = None) -> None:
-        _check_camera_and_config(camera, config)
+        self.estimator = LaneEstimator(camera, config)  # checks both arguments
         self.camera = camera
-        self.config = config or ControllerConfig()
-        self.estimator = LaneEstimator(camera, self.config)
+        self.config = self.estimator.config
         self.last: PathEstimate | None = None
 
     def reset(self) -> None:

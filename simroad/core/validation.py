@@ -10,7 +10,7 @@ from __future__ import annotations
 import difflib
 import math
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ __all__ = [
     "check_array",
     "check_bool",
     "check_choice",
+    "check_fields_in_range",
     "check_finite_number",
     "check_image",
     "check_in_range",
@@ -100,6 +101,42 @@ def check_in_range(
             f"Pass a value inside that range."
         )
     return value
+
+
+def check_fields_in_range(
+    obj: Any, ranges: Mapping[str, tuple[float, float, str, bool]], *, high_exclusive: Iterable[str] = ()
+) -> dict[str, float]:
+    """Check the numeric fields of a config against its table of valid ranges.
+
+    Parameters
+    ----------
+    obj : object
+        The config (a dataclass instance); its attributes are read, not changed.
+    ranges : mapping
+        Field name -> ``(low, high, unit, low_inclusive)``, checked in this order with
+        :func:`check_in_range` (``high`` included unless the name is in
+        ``high_exclusive``), so the first bad field is the one reported.
+    high_exclusive : iterable of str
+        The fields whose ``high`` itself is not valid.
+
+    Returns
+    -------
+    dict of str to float
+        Field name -> its value as a float.
+    """
+    open_high = set(high_exclusive)
+    return {
+        name: check_in_range(
+            name,
+            getattr(obj, name),
+            low,
+            high,
+            unit=unit,
+            low_inclusive=low_inclusive,
+            high_inclusive=name not in open_high,
+        )
+        for name, (low, high, unit, low_inclusive) in ranges.items()
+    }
 
 
 def check_int_in_range(name: str, value: Any, low: int, high: int) -> int:

@@ -21,6 +21,11 @@ _EGO_ROWS = 8
 _EGO_COLS = 3
 
 
+def _mask_arg(mask: np.ndarray) -> np.ndarray:
+    """The public functions' ``mask`` argument, checked and C-contiguous (for OpenCV)."""
+    return np.ascontiguousarray(check_mask("mask", mask))
+
+
 def _ego_component(mask: np.ndarray) -> np.ndarray:
     n, labels = cv2.connectedComponents(mask.view(np.uint8), connectivity=8)
     if n <= 1:
@@ -108,13 +113,14 @@ def keep_ego_component(mask: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     mask : ndarray, bool, (H, W)
+        The road pixels, e.g. as the classifier labelled them.
 
     Returns
     -------
     ndarray, bool, (H, W)
+        The ego's component alone (a copy of ``mask`` when it holds no road).
     """
-    mask = np.ascontiguousarray(check_mask("mask", mask))
-    return _ego_component(mask)
+    return _ego_component(_mask_arg(mask))
 
 
 def fill_holes(mask: np.ndarray) -> np.ndarray:
@@ -129,16 +135,16 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     mask : ndarray, bool, (H, W)
+        The region whose holes to fill.
 
     Returns
     -------
     ndarray, bool, (H, W)
+        ``mask`` with its holes set.
     """
-    mask = np.ascontiguousarray(check_mask("mask", mask))
-    return _fill_holes(mask)
+    return _fill_holes(_mask_arg(mask))
 
 
 def postprocess(mask: np.ndarray) -> np.ndarray:
     """:func:`keep_ego_component` then :func:`fill_holes`; (H, W) bool."""
-    mask = np.ascontiguousarray(check_mask("mask", mask))
-    return _fill_holes(_ego_component(mask))
+    return _fill_holes(_ego_component(_mask_arg(mask)))

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from highway_env import utils
 from highway_env.road.lane import AbstractLane, LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
@@ -26,7 +26,7 @@ from highway_env.vehicle.behavior import IDMVehicle
 from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
 from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
-from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
+from simroad.envs.scenarios import ScenarioSpec
 
 __all__ = [
     "Block",
@@ -261,18 +261,11 @@ class TownStreetEnv(GeneratedRoadEnv):
     ``junction_boxes``.
     """
 
+    scenario_name = "town"
+
     @classmethod
-    def default_config(cls) -> dict:
-        spec = get_scenario("town")  # the defaults are the town scenario's facts
-        config = super().default_config()
-        utils.update_config(
-            config,
-            {
-                **generated_road_config(spec),
-                "road_length": spec.route_m + 40.0,
-            },
-        )
-        return config
+    def _road_config(cls, spec: ScenarioSpec) -> dict[str, Any]:
+        return {"road_length": spec.route_m + 40.0}
 
     def _reset(self) -> None:
         rng = self.np_random

@@ -10,16 +10,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from highway_env import utils
 from highway_env.road.lane import CircularLane, LineType, StraightLane
 from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
-from simroad.envs.scenarios import ScenarioSpec, generated_road_config, get_scenario
+from simroad.envs.scenarios import ScenarioSpec
 
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments", "make_winding"]
 
@@ -147,19 +147,11 @@ class WindingRoadEnv(GeneratedRoadEnv):
     ``oncoming_vehicles`` (counts), ``ego_speed`` (m/s).
     """
 
+    scenario_name = "winding"
+
     @classmethod
-    def default_config(cls) -> dict:
-        spec = get_scenario("winding")  # the defaults are the winding scenario's facts
-        config = super().default_config()
-        utils.update_config(
-            config,
-            {
-                **generated_road_config(spec),
-                "road_length": 2000.0,
-                "min_radius": 45.0,
-            },
-        )
-        return config
+    def _road_config(cls, spec: ScenarioSpec) -> dict[str, Any]:
+        return {"road_length": 2000.0, "min_radius": 45.0}
 
     def _reset(self) -> None:
         rng = self.np_random

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from simroad.core.validation import check_int_in_range, check_output_file
 from simroad.envs import SCENARIO_NAMES, RoadCamEnv
-from simroad.experiments.export import ensure_writable_dir
+from simroad.experiments._plotting import save_figure, start_figure
 from simroad.experiments.rollout import drive_autopilot
 
 __all__ = ["camera_figure", "check_figure_path", "figure_suffixes", "places_figure"]
@@ -32,12 +32,7 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
     out = check_figure_path("out", out)
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1 - len(SCENARIO_NAMES))
     steps = check_int_in_range("steps", steps, 0, 100_000)
-    import matplotlib  # lazily: selecting the Agg backend must precede pyplot, and only when drawing
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ensure_writable_dir("out", out.parent if str(out.parent) else ".")
+    plt = start_figure(out)
     fig, axes = plt.subplots(
         len(SCENARIO_NAMES), 3, figsize=(11, 2.3 * len(SCENARIO_NAMES)), gridspec_kw={"width_ratios": [16, 16, 6]}
     )
@@ -53,9 +48,7 @@ def camera_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 15) -> 
             ax.set_title(title, fontsize=9)
             ax.axis("off")
         env.close()
-    fig.tight_layout()
-    fig.savefig(out, dpi=80)
-    plt.close(fig)
+    save_figure(fig, out, dpi=80)
     return out
 
 
@@ -70,12 +63,7 @@ def places_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 25) -> 
     out = check_figure_path("out", out)
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1 - len(SCENARIO_NAMES))
     steps = check_int_in_range("steps", steps, 0, 100_000)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ensure_writable_dir("out", out.parent if str(out.parent) else ".")
+    plt = start_figure(out)
     n = len(SCENARIO_NAMES)
     fig, axes = plt.subplots(n, 2, figsize=(12.8, 3.7 * n), squeeze=False)
     for row, scenario in enumerate(SCENARIO_NAMES):
@@ -89,7 +77,5 @@ def places_figure(out: str | os.PathLike, *, seed: int = 0, steps: int = 25) -> 
             ax.set_title(f"{scenario}, seed {seed + row}: {noise if noise == 'clear' else 'shadow 0.9'}", fontsize=10)
             ax.axis("off")
             env.close()
-    fig.tight_layout()
-    fig.savefig(out, dpi=80)
-    plt.close(fig)
+    save_figure(fig, out, dpi=80)
     return out

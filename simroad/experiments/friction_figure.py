@@ -19,7 +19,7 @@ import numpy as np
 from simroad.control.autopilot import STEERING_RANGE_RAD, autopilot_action
 from simroad.envs.friction import RoadGrip, cornering_speed_m_s, road_grip, stopping_distance_m
 from simroad.envs.tyres import attach_grip
-from simroad.experiments.export import ensure_writable_dir
+from simroad.experiments._plotting import save_figure, start_figure
 from simroad.experiments.figures import check_figure_path
 from simroad.noise import make_weather
 
@@ -108,12 +108,7 @@ def friction_figure(out: str | os.PathLike, *, speed_m_s: float = 25.0, radius_m
     weather of :data:`FIGURE_WEATHERS`, simulated (bars) and in theory (dots). Writes a PNG."""
 
     out = check_figure_path("out", out)
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ensure_writable_dir("out", out.parent if str(out.parent) else ".")
+    plt = start_figure(out)
     grips = weather_grips()
     labels = [f"{label}\nμ={grip.mu:.2f}" for label, grip in grips]
     brake = [simulated_braking_m(g, speed_m_s) for _, g in grips]
@@ -133,7 +128,5 @@ def friction_figure(out: str | os.PathLike, *, speed_m_s: float = 25.0, radius_m
         ax.legend(fontsize=7, loc=where)
         ax.grid(axis="x", alpha=0.3)
     fig.suptitle("simroad: what the weather does to the car (μ from the weather models)", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(out, dpi=90)
-    plt.close(fig)
+    save_figure(fig, out, dpi=90)
     return out

@@ -24,18 +24,10 @@ from typing import Any
 
 import numpy as np
 
+from simroad.experiments._plotting import pyplot, save_figure
 from simroad.experiments.stats import ALL_FILTERS, detectors, filter_order, mean_interval
 
 __all__ = ["error_rates_figure", "paired_figure", "safety_figure"]
-
-
-def _pyplot() -> Any:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _yerr(stats: Sequence[tuple[float, float, float]], scale: float = 1.0) -> np.ndarray:
@@ -46,14 +38,12 @@ def _yerr(stats: Sequence[tuple[float, float, float]], scale: float = 1.0) -> np
 
 
 def _save(fig: Any, path: Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=90, metadata={"Software": None})
-    _pyplot().close(fig)
+    save_figure(fig, path, dpi=90, metadata={"Software": None})  # no version: the same results, the same bytes
 
 
 def error_rates_figure(records: list[dict], path: Path) -> None:
     """Write ``error_rates.png`` (see the module docstring)."""
-    plt = _pyplot()
+    plt = pyplot()
     det = [r for r in records if r["driver"] == "detector" and not r.get("error")]
     noises = sorted({r["noise"] for r in det}, key=lambda n: (n != "clear", n))
     filters = filter_order(r["filters"] for r in det)
@@ -85,7 +75,7 @@ def error_rates_figure(records: list[dict], path: Path) -> None:
 
 def safety_figure(records: list[dict], path: Path) -> None:
     """Write ``safety.png`` (see the module docstring)."""
-    plt = _pyplot()
+    plt = pyplot()
     ok = [r for r in records if not r.get("error")]
     noises = sorted({r["noise"] for r in ok if r["noise"] != "clear"}) or ["clear"]
     clear = [r for r in ok if r["noise"] == "clear"]
@@ -124,7 +114,7 @@ def safety_figure(records: list[dict], path: Path) -> None:
 
 def paired_figure(paired: list[dict], path: Path) -> None:
     """Write ``paired.png`` from :func:`~simroad.experiments.stats.paired_differences` rows."""
-    plt = _pyplot()
+    plt = pyplot()
     rows = [p for p in paired if p["scenario"] == "all" and p["setting"] != "oracle"]
     dets = sorted({p["detector"] for p in rows}, key=lambda d: (d != "paper", d)) or [""]
     cells = sorted({(p["noise"], p["severity"]) for p in rows}, key=lambda c: (c[0] != "clear", c[0], c[1]))

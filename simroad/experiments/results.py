@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
@@ -27,6 +26,7 @@ from typing import Any
 from simroad.errors import InvalidParameterError
 from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.grid import AblationGrid, cell_key
+from simroad.experiments.outlock import _stderr
 
 __all__ = ["REJECTED_NAME", "RESULTS_NAME", "ROW_TYPES", "BadLine", "ResultStore", "check_row", "read_results"]
 
@@ -170,10 +170,6 @@ def read_results(path: str | os.PathLike) -> tuple[list[dict], list[BadLine]]:
             continue
         rows[key], first_line[key] = parsed, i
     return list(rows.values()), bad
-
-
-def _stderr(message: str) -> None:
-    print(message, file=sys.stderr)
 
 
 class ResultStore:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from simroad.core.validation import (
     check_array,
     check_bool,
+    check_fields_in_range,
     check_image,
     check_mask,
     check_output_dir,
@@ -120,3 +123,12 @@ def test_check_input_dir_and_file(tmp_path):
         check_input_file("config", tmp_path)
     with pytest.raises(SimroadError, match=r"^config: expected a file path, got int 5"):
         check_input_file("config", 5)
+
+
+def test_check_fields_in_range_checks_in_table_order():
+    ranges = {"a_m": (0.0, 1.0, "m", False), "b": (0.0, 1.0, "", True)}
+    assert check_fields_in_range(SimpleNamespace(a_m=1, b=0), ranges) == {"a_m": 1.0, "b": 0.0}
+    with pytest.raises(SimroadError, match=r"a_m: expected a value in \(0, 1\] m, got 0 m"):
+        check_fields_in_range(SimpleNamespace(a_m=0, b=2), ranges)
+    with pytest.raises(SimroadError, match=r"b: expected a value in \[0, 1\), got 1"):
+        check_fields_in_range(SimpleNamespace(a_m=1, b=1), ranges, high_exclusive=("b",))
