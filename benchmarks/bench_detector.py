@@ -43,7 +43,7 @@ import warnings
 import numpy as np
 from _harness import interleaved, one_core, table
 
-from simroad.detector import RoadDetector, train_default
+from simroad.detector import DetectorEpisode, RoadDetector, train_default
 from simroad.detector.features import _features_f
 from simroad.detector.growth import GROW_TOLERANCE, grow_road
 from simroad.detector.morphology import _ego_component, _fill_holes
@@ -171,10 +171,10 @@ def _acted_counts(images: list[np.ndarray]) -> str:
     return ", ".join(f"{name} {n}/{len(images)}" for name, n in counts.items())
 
 
-def _per_weather(det: RoadDetector, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
+def _per_weather(det: DetectorEpisode, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
     """The full detector on every weather's frames, interleaved; one table row per weather."""
     candidates = {
-        (weather, k): (lambda img=img: det.reset().predict(img))
+        (weather, k): (lambda img=img: det.reset().predict(img))  # an episode's first frame
         for weather, imgs in frames.items()
         for k, img in enumerate(imgs)
     }
@@ -194,9 +194,9 @@ def _per_weather(det: RoadDetector, frames: dict[str, list[np.ndarray]], size, r
     return times
 
 
-def _stage_costs(det: RoadDetector, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
+def _stage_costs(episode: DetectorEpisode, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
     """Median ms of each stage per weather, the stages fed what the pipeline feeds them."""
-    ground = det.ground_
+    det, ground = episode.detector, episode.ground
     candidates = {}
     for w, imgs in frames.items():
         for k, img in enumerate(imgs):
@@ -226,7 +226,7 @@ def _stage_costs(det: RoadDetector, frames: dict[str, list[np.ndarray]], size, r
     return raw
 
 
-def _literal_ratio(det: RoadDetector, literal, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
+def _literal_ratio(det: DetectorEpisode, literal, frames: dict[str, list[np.ndarray]], size, repeats: int) -> dict:
     """The full detector side by side with the literal pipeline (clean and glare frames; once at 1280x720)."""
     results = {}
     target = TARGET_MS[size]
@@ -234,7 +234,7 @@ def _literal_ratio(det: RoadDetector, literal, frames: dict[str, list[np.ndarray
         img = frames[weather][-1]
         times = interleaved({_TABLE: lambda img=img: det.reset().predict(img), _LITERAL: lambda img=img: literal(img)},
                             repeats=repeats, warmup=1 if size == (320, 180) else 0)  # fmt: skip
-        title = f"full detector vs literal: {size[0]}x{size[1]}, one core, {len(det.svm_.dual_coef)} support vectors, "
+        title = f"full detector vs literal: {size[0]}x{size[1]}, one core, {len(det.detector.svm_.dual_coef)} support vectors, "
         print(table(title + f"{weather} frame", times, baseline=_LITERAL, target_ms={_TABLE: target}), flush=True)
         ratio = np.median(times[_LITERAL]) / np.median(times[_TABLE])
         print(f"speed ratio (literal / table): {ratio:.0f}x  (target >= 50x: {'ok' if ratio >= 50 else 'MISSED'})")
@@ -250,7 +250,7 @@ def _agreement(det, images, ground=None) -> tuple[float, float]:
     and the morphology the same)."""
     whole, on_ground = [], []
     for img in images:
-        same = det.reset().predict(img) == det.reset().predict(img, exact=True)
+        same = det.predict(img) == det.predict(img, exact=True)
         whole.append(same.mean())
         on_ground.append(same[ground].mean() if ground is not None else same.mean())
     return 100.0 * float(np.mean(whole)), 100.0 * float(np.mean(on_ground))
@@ -297,7 +297,7 @@ def _sizes(det: RoadDetector, literal, repeats: int) -> tuple[dict, list]:
         clean = _frames(0, N_FRAMES[size], size)
         small = small or clean
         frames = _weather_frames(clean)
-        sized = copy.copy(det).set_camera(clean[0][2])  # the drivers tell the detector its camera
+        sized = det.episode(clean[0][2])  # the drivers start an episode with the camera
         tag = f"{size[0]}x{size[1]}"
         results[f"weathers {tag}"] = times = _per_weather(sized, frames, size, repeats)
         results[f"stages {tag}"] = _stage_costs(sized, frames, size, max(3, repeats // 2))

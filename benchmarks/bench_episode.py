@@ -28,7 +28,7 @@ def main() -> None:
         state["obs"], state["info"] = obs, info
 
     def perception_control():
-        mask = driver.detector.predict(state["obs"])
+        mask = driver.episode.predict(state["obs"])
         driver.controller.act(mask, float(state["info"]["speed_m_s"]))
 
     def camera():

@@ -22,7 +22,7 @@ from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_keeping import MaskLaneKeeper
 from simroad.core.validation import check_choice
-from simroad.detector.registry import check_mask, load_detector
+from simroad.detector.registry import check_mask, load_detector, start_episode
 from simroad.envs import RoadCamEnv
 from simroad.envs.scenarios import get_scenario
 from simroad.errors import InvalidParameterError
@@ -44,6 +44,16 @@ class MaskDriver:
     detector : object with ``predict(uint8 (H, W, 3)) -> bool (H, W)``, optional
         None means the oracle: the mask is ``info["road_mask"]``.
 
+    Attributes
+    ----------
+    episode : object with ``predict`` or None
+        The detector's current episode (:func:`~simroad.detector.registry.start_episode`
+        with ``camera``): :meth:`reset` starts one, the first call does if no reset did.
+        It carries what persists across the episode's frames (for the shipped detector,
+        the camera's ground mask and the glare memory); the detector itself is shared.
+    last_mask : ndarray, bool, (H, W), or None
+        The mask of the last call.
+
     Actions are ``[steering, acceleration]``: the environment must be created with
     ``longitudinal=True`` (:func:`make_driver` checks it).
     """
@@ -59,23 +69,24 @@ class MaskDriver:
         self.detector = detector
         self.camera = camera
         self.controller = MaskLaneKeeper(camera, control)
+        self.episode: Any = None
         self.last_mask: np.ndarray | None = None
 
     def reset(self) -> None:
         """Forget the controller's memory of the previous episode, and start the
-        detector's: its ``reset()`` and ``set_camera(camera)``, where it has them (a
-        detector built once per process may have seen another camera before)."""
+        detector's episode with the camera (:func:`~simroad.detector.registry.start_episode`:
+        its ``episode(camera)``, else its ``reset()`` and ``set_camera(camera)``, where it
+        has them; a detector built once per process may have seen another camera before)."""
         self.controller.reset()
-        for hook, args in (("reset", ()), ("set_camera", (self.camera,))):
-            fn = getattr(self.detector, hook, None)
-            if callable(fn):
-                fn(*args)
+        self.episode = None if self.detector is None else start_episode(self.detector, self.camera)
 
     def __call__(self, obs: np.ndarray, info: dict[str, Any]) -> np.ndarray:
         if self.detector is None:
             mask = info["road_mask"]
         else:
-            mask = check_mask(self.detector.predict(obs), obs.shape[:2], self.detector)
+            if self.episode is None:
+                self.episode = start_episode(self.detector, self.camera)
+            mask = check_mask(self.episode.predict(obs), obs.shape[:2], self.detector)
         self.last_mask = mask
         return self.controller.act(mask, float(info["speed_m_s"]), mu=info.get("mu"))
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from simroad.detector.detector import RoadDetector, default_model_path
+from simroad.detector.episode import DetectorEpisode, GlareMemory
 from simroad.detector.features import hsi, pixel_features
 from simroad.detector.morphology import extend_upward, fill_holes, keep_ego_component, postprocess
 from simroad.detector.persistence import check_model_destination
@@ -12,6 +13,8 @@ from simroad.detector.training import train_default
 
 __all__ = [
     "MIN_IMAGE_SIZE",
+    "DetectorEpisode",
+    "GlareMemory",
     "KernelExpansion",
     "RoadDetector",
     "check_model_destination",

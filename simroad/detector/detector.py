@@ -2,7 +2,9 @@
 
 ``RoadDetector`` stores its arguments in ``__init__``; ``fit(images, masks)`` learns an
 RBF SVM on per-pixel colour features of any RGB images with bool road masks (rendered
-frames or photographs), ``predict`` returns a bool road mask. The filters run by name
+frames or photographs), ``predict`` returns a bool road mask and leaves the detector
+unchanged; an episode's frames in order go through :meth:`RoadDetector.episode`
+(:mod:`simroad.detector.episode`: the camera's ground, the glare memory). The filters run by name
 from :mod:`simroad.filters` in one of two variants (``filter_variant``, see
 :data:`~simroad.filters.FILTER_REGISTRY`); ``simroad filter-effect`` measures each
 against no filter on its own weather. Pixel sampling lives in
@@ -33,8 +35,8 @@ from simroad.core.validation import (
     check_int_in_range,
     normalize_rng,
 )
+from simroad.detector.episode import DetectorEpisode, GlareMemory, _check_ground, _through_glare
 from simroad.detector.features import N_FEATURES, _features_f
-from simroad.detector.growth import GROW_TOLERANCE, _across_lobe, _as_uint8, _grow
 from simroad.detector.lut import ColourTable
 from simroad.detector.morphology import _ego_component, _fill_holes, extend_upward
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
@@ -51,22 +53,13 @@ from simroad.filters.pipeline import check_filters, check_variant
 
 __all__ = [
     "DEFAULT_MAX_SAMPLES",
-    "DEFAULT_NONROAD_WEIGHT",
     "RoadDetector",
     "default_model_path",
 ]
 
-#: Training pixels of :class:`RoadDetector` by default and of the shipped model
-#: (:func:`~simroad.detector.train_default`), and the non-road cost of the shipped
-#: model: with them the clean-frame FPR of held-out worlds fell from 3.6 % to under 2 %
-#: for FNR 1.5 % -> about 2 % (README, "The shipped model").
+#: Training pixels of :class:`RoadDetector` by default, as many as the shipped model's
+#: (:data:`~simroad.detector.training.SHIPPED_MAX_SAMPLES`).
 DEFAULT_MAX_SAMPLES = 16000
-DEFAULT_NONROAD_WEIGHT = 2.0
-#: Frames after the light filter last removed a sun's lobe during which the improved
-#: detector still takes the road from region growth (20 frames: 4 s at 5 Hz). A sun
-#: that cast a lobe is still up when the car turns and the lobe leaves the view, or
-#: when the lobe test misses a frame; the exposure it forced lasts as well.
-GLARE_MEMORY_FRAMES = 20
 _NOT_FITTED = (
     "This %(name)s is not fitted yet. Call fit(images, masks) first, or get a trained "
     "one with RoadDetector.pretrained() or RoadDetector.load(path)."
@@ -110,7 +103,9 @@ class RoadDetector(BaseEstimator):
         Cost of calling a non-road training pixel road, relative to missing a road
         pixel (the SVM's ``class_weight={0: nonroad_weight, 1: 1}``), > 0. Above 1
         trades a little FNR for a lower FPR: a car steered by the mask is hurt more
-        by a shoulder taken for road than by a road pixel missed. Default 1.
+        by a shoulder taken for road than by a road pixel missed. Default 1 (the
+        shipped model was trained with
+        :data:`~simroad.detector.training.SHIPPED_NONROAD_WEIGHT`, 2).
     lut_bits : int, optional
         Coarse levels per RGB channel of the lookup table are ``2**lut_bits`` (5-7);
         cells near the decision boundary are stored at full 8-bit resolution either
@@ -153,8 +148,8 @@ class RoadDetector(BaseEstimator):
 
     def __init__(
         self,
-        filters: Sequence[str] = (),
         *,
+        filters: Sequence[str] = (),
         morphology: bool = True,
         C: float = 10.0,
         gamma: str | float = "scale",
@@ -224,7 +219,7 @@ class RoadDetector(BaseEstimator):
 
     # --------------------------------------------------------------- prediction
     def predict(self, image: np.ndarray, *, exact: bool = False) -> np.ndarray:
-        """Detect the road in one image.
+        """Detect the road in one image, on its own; the detector is left unchanged.
 
         Parameters
         ----------
@@ -242,57 +237,91 @@ class RoadDetector(BaseEstimator):
 
         Notes
         -----
-        Frames are a sequence: with the ``"improved"`` variant, the light filter and
-        ``morphology``, the road comes from region growth on the frame where the light
-        filter removes a sun's lobe and on the :data:`GLARE_MEMORY_FRAMES` frames after
-        it (:meth:`reset` forgets; the drivers call it per episode).
+        A frame of a sequence may need what came before it: with the ``"improved"``
+        variant, the light filter and ``morphology``, the road comes from region growth
+        on the :data:`~simroad.detector.episode.GLARE_MEMORY_FRAMES` frames after the
+        light filter removed a sun's lobe, and a known camera keeps the road below its
+        horizon. :meth:`episode` predicts an episode's frames in order with both;
+        ``predict`` is the first frame of an episode without a camera.
+        """
+        return self.predict_step(image, GlareMemory(), exact=exact)[0]
+
+    def predict_step(
+        self, image: np.ndarray, memory: GlareMemory, *, ground: np.ndarray | None = None, exact: bool = False
+    ) -> tuple[np.ndarray, GlareMemory]:
+        """Detect the road in the next frame of an episode: a pure function of the frame,
+        the episode's memory and the camera's ground; the detector is left unchanged.
+
+        :meth:`episode` keeps ``memory`` and ``ground`` for you; call this one to hold
+        them yourself (e.g. one memory per environment of a vector env).
+
+        Parameters
+        ----------
+        image : ndarray, (H, W, 3), uint8 or float32/float64 in [0, 1]
+            RGB frame, at least 8x8 pixels.
+        memory : GlareMemory
+            What the episode's earlier frames left (``GlareMemory()`` for its first).
+        ground : ndarray, bool, (H, W), optional
+            The camera's ``ground_valid``: with the ``"improved"`` variant and
+            ``morphology`` on, pixels above its horizon are never road and never join
+            the road. A ground of another size than the frame is not used; the
+            ``"paper"`` variant ignores it (§III knows no camera).
+        exact : bool, optional
+            Evaluate the SVM at every pixel instead of the lookup table (see :meth:`predict`).
+
+        Returns
+        -------
+        mask : ndarray, bool, (H, W)
+            True on road.
+        memory : GlareMemory
+            What this frame leaves for the next (``memory`` itself when nothing changed).
         """
         if not hasattr(self, "lut_"):  # check_is_fitted's test, without its per-call tag machinery
             raise NotFittedError(_NOT_FITTED % {"name": type(self).__name__})
         image = check_image("image", image, dtype=IMAGE_DTYPES, channels=3, min_size=MIN_IMAGE_SIZE)
+        if not isinstance(memory, GlareMemory):
+            raise InvalidParameterError(
+                f"memory: expected a GlareMemory (GlareMemory() for an episode's first frame), "
+                f"got {type(memory).__name__}; or let detector.episode(camera) keep it."
+            )
+        ground = _check_ground("ground", ground)
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
         exact = check_bool("exact", exact)
         mask, acted = self._classify(image, filters, variant, exact)
-        if check_bool("morphology", self.morphology):
-            ground = getattr(self, "ground_", None)
-            if ground is not None and variant == "improved" and ground.shape == mask.shape:
-                mask &= ground  # nothing above the horizon is road, nor joins the road
-            else:
-                ground = None
-            mask = _ego_component(mask)
-            haze = acted.get("rain_snow") if variant == "improved" else None
-            if haze is not None and haze.any():  # not §III: the rain/snow filter extends the road upwards
-                # Removing the veil recovers the far road; near a pale verge the classifier
-                # calls road (kept apart from the road by a painted line) it also joins the
-                # two through the far rows, and the ego's component takes the whole verge.
-                # What the filter adds is kept only where it continues, upwards, the road
-                # found without it.
-                others = tuple(f for f in filters if f != "rain_snow")
-                ref = self._classify(image, others, variant, exact)[0]
-                if ground is not None:
-                    ref &= ground
-                ref = _fill_holes(_ego_component(ref)) & mask
-                if ref.any():
-                    mask = extend_upward(mask, ref)
-            lobe = acted.get("light") if variant == "improved" else None
-            if lobe is not None and lobe.any():  # not §III: the road through the glare lobe the filter removed
-                # Under a sun's lobe the colour classifier fails beside it (the exposure
-                # dropped; lit verges look like road): the road is what grows from the
-                # ego's road across smooth colour, and the lobe where road lies both sides.
-                self._since_lobe: int | None = 0
-                bound = self._growth_bound(ground, lobe, mask.shape)
-                lobe = lobe & bound
-                grown = _grow(_as_uint8(image), mask | lobe, bound, GROW_TOLERANCE, 2)
-                if grown.any():
-                    mask = grown | _across_lobe(grown, lobe)
-            elif lobe is not None and self._remembers_lobe() and mask.any():
-                bound = self._growth_bound(ground, None, mask.shape)  # the sun is still up
-                grown = _grow(_as_uint8(image), mask, bound, GROW_TOLERANCE, 2)
-                if grown.any():
-                    mask = grown
-            mask = _fill_holes(mask)
-        return mask
+        if not check_bool("morphology", self.morphology):
+            return mask, memory
+        if variant != "improved":
+            return _fill_holes(_ego_component(mask)), memory
+        if ground is not None and ground.shape == mask.shape:
+            mask &= ground  # nothing above the horizon is road, nor joins the road
+        else:
+            ground = None
+        mask = _ego_component(mask)
+        haze = acted.get("rain_snow")
+        if haze is not None and haze.any():
+            mask = self._extend_through_haze(image, mask, filters, exact, ground)
+        lobe = acted.get("light")
+        if lobe is not None:
+            mask, memory = _through_glare(image, mask, lobe, memory, ground)
+        return _fill_holes(mask), memory
+
+    def _extend_through_haze(
+        self, image: np.ndarray, mask: np.ndarray, filters: tuple[str, ...], exact: bool, ground: np.ndarray | None
+    ) -> np.ndarray:
+        """Not §III: the rain/snow filter extends the road upwards, and no further.
+
+        Removing the veil recovers the far road; near a pale verge the classifier calls
+        road (kept apart from the road by a painted line) it also joins the two through
+        the far rows, and the ego's component takes the whole verge. What the filter adds
+        is kept only where it continues, upwards, the road found without it.
+        """
+        others = tuple(f for f in filters if f != "rain_snow")
+        ref = self._classify(image, others, "improved", exact)[0]
+        if ground is not None:
+            ref &= ground
+        ref = _fill_holes(_ego_component(ref)) & mask
+        return extend_upward(mask, ref) if ref.any() else mask
 
     def _classify(
         self, image: np.ndarray, filters: tuple[str, ...], variant: str, exact: bool
@@ -305,64 +334,35 @@ class RoadDetector(BaseEstimator):
         planes, acted = filtered_table_planes_masks(image, filters, variant)
         return self.lut_.lookup(planes), acted
 
-    def _growth_bound(self, ground: np.ndarray | None, lobe: np.ndarray | None, shape: tuple[int, ...]) -> np.ndarray:
-        """Where region growth may go: the camera's ground (below the horizon) when the
-        detector knows its camera; else the rows from the top of the last sun's lobe down.
+    def episode(self, camera: Any = None) -> DetectorEpisode:
+        """Start an episode: an object that predicts its frames in order and carries what
+        persists from one to the next (the camera's ground mask, the glare memory).
 
-        A sun's specular lobe lies on the ground, so the ground reaches at least up to the
-        lobe's top row; above it the bright sky meets the lobe without a step and the
-        growth would flood it (a frame or a photograph scored without a camera). The
-        lobe's top is kept, as a fraction of the height, for the frames the memory covers.
+        The detector itself is never changed, so one detector serves any number of
+        episodes, one after another or side by side; the caller owns each episode
+        (the mask driver starts one per episode, :class:`~simroad.control.MaskDriver`).
+
+        Parameters
+        ----------
+        camera : PinholeCamera or None, optional
+            The calibrated camera the frames come from (``env.camera``; any object with
+            a bool (H, W) ``ground_valid``). With the ``"improved"`` variant and
+            ``morphology`` on, pixels its calibration puts above the horizon are never
+            road: sky, tree tops and building fronts cannot join the road component.
+            None (default): frames or photographs without a camera.
+
+        Returns
+        -------
+        DetectorEpisode
+            With ``predict(image, *, exact=False)``, ``reset()``, ``name`` and
+            ``version``: a detector of the protocol of :mod:`simroad.detector.registry`.
+
+        Examples
+        --------
+        >>> episode = detector.episode(env.camera)  # doctest: +SKIP
+        >>> masks = [episode.predict(frame) for frame in frames]  # doctest: +SKIP
         """
-        if ground is not None:
-            return ground
-        if lobe is not None:
-            self._lobe_top = float(np.argmax(lobe.any(axis=1))) / shape[0]
-        bound = np.zeros(shape, bool)
-        bound[int(round(getattr(self, "_lobe_top", 0.0) * shape[0])) :] = True
-        return bound
-
-    def _remembers_lobe(self) -> bool:
-        """Count one more frame without a lobe; True while within :data:`GLARE_MEMORY_FRAMES` of the last one."""
-        since = getattr(self, "_since_lobe", None)
-        if since is None:
-            return False
-        self._since_lobe = since + 1
-        return self._since_lobe <= GLARE_MEMORY_FRAMES
-
-    def reset(self) -> RoadDetector:
-        """Forget past frames (the drivers call it at the start of every episode).
-
-        The improved detector with the light filter remembers for
-        :data:`GLARE_MEMORY_FRAMES` frames that it saw a sun's lobe (and keeps taking the
-        road from region growth); frames scored one at a time
-        (:func:`~simroad.detector.registry.predict_alone`) are predicted after a reset.
-        """
-        self._since_lobe = None
-        self._lobe_top = 0.0
-        return self
-
-    def set_camera(self, camera: Any) -> RoadDetector:
-        """Tell the detector the calibrated camera its frames come from (or None to forget it).
-
-        The drivers call it once per episode (the optional ``set_camera`` of the
-        detector protocol, :mod:`simroad.detector.registry`). With the ``"improved"``
-        variant and ``morphology`` on, pixels the camera's calibration puts above the
-        horizon (``camera.ground_valid`` False) are never road: sky, tree tops and
-        building fronts cannot join the road component. Frames of another size are
-        left as they are; the ``"paper"`` variant ignores the camera (§III knows none).
-        """
-        if camera is None:
-            self.ground_ = None
-            return self
-        ground = getattr(camera, "ground_valid", None)
-        if not isinstance(ground, np.ndarray) or ground.ndim != 2 or ground.dtype != np.bool_:
-            raise InvalidParameterError(
-                f"camera: expected a calibrated camera with a bool (H, W) ground_valid mask (env.camera), "
-                f"got {type(camera).__name__}."
-            )
-        self.ground_ = ground.copy()
-        return self
+        return DetectorEpisode(self, camera)
 
     # -------------------------------------------------------------- persistence
     def save(self, path: str | os.PathLike) -> None:
@@ -403,7 +403,7 @@ class RoadDetector(BaseEstimator):
 
     @classmethod
     def pretrained(
-        cls, filters: Sequence[str] = (), *, morphology: bool = True, filter_variant: str = "improved"
+        cls, *, filters: Sequence[str] = (), morphology: bool = True, filter_variant: str = "improved"
     ) -> RoadDetector:
         """The model shipped with simroad (``simroad/data/road_detector.npz``).
 

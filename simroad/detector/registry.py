@@ -10,8 +10,16 @@ a memory of past frames), ``set_camera(camera)`` (called once per episode with t
 calibrated :class:`~simroad.camera.PinholeCamera` the frames come from: its
 intrinsics, mounting, ``horizon_row``, ``ground_valid`` and ground map, for a detector
 that uses where road can be) and the attributes ``name`` and ``version`` (strings, for
-the records). The shipped :class:`~simroad.detector.RoadDetector` is the built-in
-``paper`` detector.
+the records).
+
+**Episodes.** A detector may instead keep what persists across an episode's frames out
+of itself: its optional ``episode(camera)`` returns an object of the same protocol that
+predicts one episode's frames in order (then neither ``reset`` nor ``set_camera`` is
+called). :func:`start_episode` starts one either way; the mask driver calls it at every
+episode and owns what it returns. The shipped :class:`~simroad.detector.RoadDetector`,
+the built-in ``paper`` detector, works so: its ``predict`` leaves it unchanged, and
+:meth:`~simroad.detector.RoadDetector.episode` carries the camera's ground mask and
+the glare memory (:mod:`simroad.detector.episode`).
 
 **Finding one by name** (:func:`load_detector`), a *spec* is one of
 
@@ -68,6 +76,7 @@ __all__ = [
     "predict_alone",
     "register",
     "resolve_factory",
+    "start_episode",
 ]
 
 #: The entry-point group an installed package registers its detectors in.
@@ -76,7 +85,8 @@ ENTRY_POINT_GROUP = "simroad.detectors"
 
 @runtime_checkable
 class Detector(Protocol):
-    """What simroad needs of a road detector (``reset``, ``name``, ``version`` optional)."""
+    """What simroad needs of a road detector (``reset``, ``set_camera``, ``episode``,
+    ``name``, ``version`` optional)."""
 
     def predict(self, image: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
         """Road mask, bool (H, W), of an RGB uint8 (H, W, 3) frame."""
@@ -86,7 +96,7 @@ class Detector(Protocol):
 def _paper(*, filters: Sequence[str] = (), filter_variant: str = "improved", morphology: bool = True) -> Any:
     """The shipped model of the paper's detector (:meth:`RoadDetector.pretrained`)."""
 
-    det = RoadDetector.pretrained(filters, morphology=morphology, filter_variant=filter_variant)
+    det = RoadDetector.pretrained(filters=filters, morphology=morphology, filter_variant=filter_variant)
     det.name, det.version = "paper", f"simroad {__version__}"
     return det
 
@@ -261,7 +271,8 @@ def load_detector(
 ) -> Any:
     """Build the detector ``spec`` names with keyword ``options``, the paper's
     ``filters`` in front (see the module docstring). Cached per process: the same
-    spec, options and filters give the same object (call its ``reset()`` per episode)."""
+    spec, options and filters give the same object (start each episode with
+    :func:`start_episode`)."""
     opts = parse_detector_options(options)
     names = check_filters(filters)
     variant = check_variant(filter_variant)
@@ -331,15 +342,9 @@ class FilteredDetector:
     def version(self) -> str:
         return describe(self.detector)["version"]
 
-    def reset(self) -> None:
-        reset = getattr(self.detector, "reset", None)
-        if callable(reset):
-            reset()
-
-    def set_camera(self, camera: Any) -> None:
-        set_camera = getattr(self.detector, "set_camera", None)
-        if callable(set_camera):
-            set_camera(camera)
+    def episode(self, camera: Any = None) -> FilteredDetector:
+        """Start an episode of the wrapped detector (:func:`start_episode`), behind the same filters."""
+        return FilteredDetector(start_episode(self.detector, camera), self.filters, filter_variant=self.filter_variant)
 
     def predict(self, image: np.ndarray) -> np.ndarray:
         return self.detector.predict(apply_filters(image, self.filters, variant=self.filter_variant))
@@ -359,14 +364,40 @@ def describe(detector: Any) -> dict[str, str]:
     }
 
 
-def predict_alone(detector: Any, image: np.ndarray) -> np.ndarray:
-    """The detector's bool (H, W) mask of one frame on its own: its memory of past
-    frames cleared first (its ``reset()``, where it has one), as when frames from
-    different episodes are scored one at a time."""
+def start_episode(detector: Any, camera: Any = None) -> Any:
+    """The object that predicts one episode's frames in order, from ``detector``'s start.
+
+    The detector's ``episode(camera)`` where it has one (the shipped
+    :class:`~simroad.detector.RoadDetector`: :meth:`~simroad.detector.RoadDetector.episode`);
+    else the detector itself, after its ``reset()`` and, given a ``camera``, its
+    ``set_camera(camera)``, where it has them. Either has ``predict(image)``; the caller
+    owns it for the episode (the mask driver starts one per episode).
+
+    Parameters
+    ----------
+    detector : object with ``predict(uint8 (H, W, 3)) -> bool (H, W)``
+        Any detector of the protocol (see the module docstring).
+    camera : PinholeCamera or None, optional
+        The calibrated camera the episode's frames come from; None for frames without
+        one (``set_camera`` is then not called).
+    """
+    episode = getattr(detector, "episode", None)
+    if callable(episode):
+        return episode(camera)
     reset = getattr(detector, "reset", None)
     if callable(reset):
         reset()
-    return check_mask(detector.predict(image), image.shape[:2], detector)
+    set_camera = getattr(detector, "set_camera", None)
+    if camera is not None and callable(set_camera):
+        set_camera(camera)
+    return detector
+
+
+def predict_alone(detector: Any, image: np.ndarray) -> np.ndarray:
+    """The detector's bool (H, W) mask of one frame on its own: the first frame of a new
+    episode without a camera (:func:`start_episode`), as when frames from different
+    episodes are scored one at a time."""
+    return check_mask(start_episode(detector).predict(image), image.shape[:2], detector)
 
 
 def check_mask(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:

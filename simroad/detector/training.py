@@ -1,4 +1,4 @@
-"""Training of the detector shipped with simroad (:func:`train_default`)."""
+"""Training of the detector shipped with simroad (:func:`train_default`) and its settings."""
 
 from __future__ import annotations
 
@@ -7,16 +7,25 @@ from collections.abc import Sequence
 import numpy as np
 
 from simroad.core.validation import normalize_rng
-from simroad.detector.detector import DEFAULT_MAX_SAMPLES, DEFAULT_NONROAD_WEIGHT, RoadDetector
+from simroad.detector.detector import RoadDetector
 
-__all__ = ["train_default"]
+__all__ = ["SHIPPED_MAX_SAMPLES", "SHIPPED_NONROAD_WEIGHT", "train_default"]
+
+#: The shipped model's training settings (``simroad/data/road_detector.npz``, stored in
+#: it as its ``max_samples`` and ``nonroad_weight``): 16000 training pixels, and a
+#: non-road pixel weighing twice a road pixel. With them the clean-frame FPR of held-out
+#: worlds fell from 3.6 % to under 2 % for FNR 1.5 % -> about 2 % (README, "The shipped
+#: model"). ``RoadDetector``'s own default ``max_samples`` is the same 16000; its
+#: default ``nonroad_weight`` is 1.
+SHIPPED_MAX_SAMPLES = 16000
+SHIPPED_NONROAD_WEIGHT = 2.0
 
 
 def train_default(
     images: Sequence[np.ndarray], masks: Sequence[np.ndarray], *, rng: np.random.Generator | int
 ) -> RoadDetector:
     """Train the default detector (no filters, morphology on) as shipped with simroad:
-    :data:`DEFAULT_MAX_SAMPLES` training pixels, non-road cost :data:`DEFAULT_NONROAD_WEIGHT`.
+    :data:`SHIPPED_MAX_SAMPLES` training pixels, non-road cost :data:`SHIPPED_NONROAD_WEIGHT`.
 
     Parameters
     ----------
@@ -36,5 +45,6 @@ def train_default(
     rng = normalize_rng(rng)
     seed = int(rng.integers(0, 2**31 - 1))
     return RoadDetector(
-        (), morphology=True, max_samples=DEFAULT_MAX_SAMPLES, nonroad_weight=DEFAULT_NONROAD_WEIGHT, random_state=seed
-    ).fit(images, masks)
+        filters=(), morphology=True, max_samples=SHIPPED_MAX_SAMPLES, nonroad_weight=SHIPPED_NONROAD_WEIGHT,
+        random_state=seed,
+    ).fit(images, masks)  # fmt: skip

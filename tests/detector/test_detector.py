@@ -12,7 +12,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from simroad import SimroadError
-from simroad.detector import RoadDetector, default_model_path, train_default
+from simroad.detector import GlareMemory, RoadDetector, default_model_path, train_default
 from simroad.envs import SCENARIO_NAMES
 from simroad.filters.pipeline import FILTERS
 from simroad.metrics import MaskScore
@@ -38,13 +38,23 @@ def test_every_filter_subset_runs_and_morphology_switches(small_detector, heldou
 
 
 def test_init_only_stores_and_clone_round_trips():
-    det = RoadDetector(("shadow", "light"), morphology=False, C=3.0, max_samples=99, lut_bits=5, random_state=4)
+    det = RoadDetector(filters=("shadow", "light"), morphology=False, C=3.0, max_samples=99, lut_bits=5, random_state=4)
     assert det.get_params() == {"filters": ("shadow", "light"), "morphology": False, "C": 3.0, "gamma": "scale",
                                 "max_samples": 99, "nonroad_weight": 1.0, "lut_bits": 5,
                                 "random_state": 4, "filter_variant": "improved"}  # fmt: skip
     assert not [k for k in vars(det) if k.endswith("_")]
     assert clone(det).get_params() == det.get_params()
     RoadDetector(filters="nonsense")  # validated in fit/predict, not in __init__
+
+
+def test_options_are_keyword_only():
+    for fn in (RoadDetector, RoadDetector.pretrained):
+        params = inspect.signature(fn).parameters.values()
+        assert all(p.kind is inspect.Parameter.KEYWORD_ONLY for p in params), fn
+    with pytest.raises(TypeError):
+        RoadDetector(("shadow",))  # type: ignore[misc]
+    with pytest.raises(TypeError):
+        RoadDetector.pretrained(("shadow",))  # type: ignore[misc]
 
 
 def test_predict_before_fit_is_not_fitted_error():
@@ -194,6 +204,8 @@ def test_constructor_defaults_are_the_documented_ones():
     assert sig.parameters["max_samples"].default == DEFAULT_MAX_SAMPLES == 16000
     assert RoadDetector().max_samples == DEFAULT_MAX_SAMPLES
     assert "DEFAULT_MAX_SAMPLES" in RoadDetector.__doc__
+    assert sig.parameters["nonroad_weight"].default == 1.0  # not the shipped model's (SHIPPED_NONROAD_WEIGHT)
+    assert "SHIPPED_NONROAD_WEIGHT" in RoadDetector.__doc__
 
 
 def test_filters_stay_a_tuple_after_save_and_load(small_detector, tmp_path):
@@ -205,9 +217,12 @@ def test_filters_stay_a_tuple_after_save_and_load(small_detector, tmp_path):
 
 
 def test_the_shipped_model_loads_with_its_stored_parameters():
+    from simroad.detector.training import SHIPPED_MAX_SAMPLES, SHIPPED_NONROAD_WEIGHT
+
     det = RoadDetector.load(default_model_path())
     assert det.filters == () and isinstance(det.filters, tuple)
     assert det.max_samples == 16000 and det.nonroad_weight == 2.0
+    assert (det.max_samples, det.nonroad_weight) == (SHIPPED_MAX_SAMPLES, SHIPPED_NONROAD_WEIGHT)
 
 
 def test_a_known_camera_keeps_the_mask_below_its_horizon(small_detector, heldout_frames):
@@ -222,11 +237,15 @@ def test_a_known_camera_keeps_the_mask_below_its_horizon(small_detector, heldout
     det = copy.deepcopy(small_detector).set_params(filters=())
     free = det.predict(image)
     assert free[: h // 4, w // 2].any()  # the column joins the road component above the horizon
-    clipped = det.set_camera(camera).predict(image)
+    episode = det.episode(camera)
+    clipped = episode.predict(image)
     assert not clipped[~camera.ground_valid].any()
     assert np.array_equal(clipped[camera.ground_valid], free[camera.ground_valid])
-    # the paper's variant knows no camera; forgetting it restores the old mask
-    assert np.array_equal(det.set_params(filter_variant="paper").predict(image), free)
-    assert np.array_equal(det.set_params(filter_variant="improved").set_camera(None).predict(image), free)
+    # the paper's variant knows no camera; an episode without one gives the detector's own mask
+    det.set_params(filter_variant="paper")
+    assert np.array_equal(episode.predict(image), free)
+    det.set_params(filter_variant="improved")
+    assert np.array_equal(det.episode(None).predict(image), free)
+    assert np.array_equal(det.predict_step(image, GlareMemory(), ground=camera.ground_valid)[0], clipped)
     with pytest.raises(SimroadError, match="camera: expected a calibrated camera"):
-        det.set_camera("front")
+        det.episode("front")

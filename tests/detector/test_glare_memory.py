@@ -1,4 +1,4 @@
-"""The improved detector's memory of a sun's lobe (RoadDetector.reset, GLARE_MEMORY_FRAMES)."""
+"""The improved detector's memory of a sun's lobe (RoadDetector.episode, GlareMemory, GLARE_MEMORY_FRAMES)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from simroad.detector import RoadDetector
-from simroad.detector.detector import GLARE_MEMORY_FRAMES
+from simroad.detector.episode import GLARE_MEMORY_FRAMES, GlareMemory
 from simroad.detector.registry import predict_alone
 from simroad.experiments.frames import collect_frames
 from simroad.filters import FILTERS, remove_glare
@@ -24,9 +24,11 @@ def test_a_lobe_is_remembered_for_glare_memory_frames(frames):
     assert remove_glare(glare).mask.any()  # the light filter removes a lobe here
     assert not remove_glare(clear).mask.any()  # and none here
     det = RoadDetector.pretrained(filters=FILTERS)
-    fresh = det.reset().predict(clear)
-    det.predict(glare)
-    after = [det.predict(clear) for _ in range(GLARE_MEMORY_FRAMES + 1)]
+    fresh = det.predict(clear)
+    episode = det.episode()
+    episode.predict(glare)
+    assert episode.memory == GlareMemory(0, episode.memory.lobe_top)
+    after = [episode.predict(clear) for _ in range(GLARE_MEMORY_FRAMES + 1)]
     # within the memory the road is grown from under the ego (it stops at the town's
     # centre line), not read from the colour classifier ...
     assert (after[0] != fresh).any()
@@ -38,11 +40,16 @@ def test_a_lobe_is_remembered_for_glare_memory_frames(frames):
 def test_reset_and_predict_alone_forget_the_lobe(frames):
     glare, clear = frames
     det = RoadDetector.pretrained(filters=FILTERS)
-    fresh = det.reset().predict(clear)
-    det.predict(glare)
+    episode = det.episode()
+    fresh = episode.predict(clear)
+    np.testing.assert_array_equal(det.predict(clear), fresh)  # predict: an episode's first frame
+    episode.predict(glare)
+    np.testing.assert_array_equal(predict_alone(episode, clear), fresh)
     np.testing.assert_array_equal(predict_alone(det, clear), fresh)
-    det.predict(glare)
-    np.testing.assert_array_equal(det.reset().predict(clear), fresh)
+    episode.predict(glare)
+    np.testing.assert_array_equal(episode.reset().predict(clear), fresh)
+    episode.predict(glare)
+    np.testing.assert_array_equal(det.predict(clear), fresh)  # the detector itself remembers nothing
 
 
 @pytest.mark.parametrize(
@@ -50,10 +57,11 @@ def test_reset_and_predict_alone_forget_the_lobe(frames):
 )
 def test_without_the_improved_light_filter_nothing_is_remembered(frames, kwargs):
     glare, clear = frames
-    det = RoadDetector.pretrained(**kwargs)
-    fresh = det.reset().predict(clear)
-    det.predict(glare)
-    np.testing.assert_array_equal(det.predict(clear), fresh)
+    episode = RoadDetector.pretrained(**kwargs).episode()
+    fresh = episode.predict(clear)
+    episode.predict(glare)
+    np.testing.assert_array_equal(episode.predict(clear), fresh)
+    assert episode.memory == GlareMemory()
 
 
 @pytest.fixture(scope="module")
@@ -67,19 +75,21 @@ def sun_down_the_lane():
 def test_without_a_camera_growth_stays_below_the_lobes_top(sun_down_the_lane, frames):
     image, ground = sun_down_the_lane
     clear = frames[1]
-    det = RoadDetector.pretrained(filters=FILTERS)  # no set_camera: a frame or photograph on its own
+    det = RoadDetector.pretrained(filters=FILTERS)  # no camera: a frame or photograph on its own
     lobe = remove_glare(image).mask
     assert lobe.any()
     top = int(np.argmax(lobe.any(axis=1)))
-    mask = det.reset().predict(image)
+    mask = det.predict(image)
     assert mask.any()
     assert not mask[:top].any()
     assert not (mask & ~ground).any()  # the sky never joins the road
     # on the frames the memory covers, the bound is the last lobe's top (the town's
     # road reaches higher on its own)
-    assert det.reset().predict(clear)[:top].any()
-    det.predict(image)
-    within = det.predict(clear)
+    assert det.predict(clear)[:top].any()
+    episode = det.episode()
+    episode.predict(image)
+    assert episode.memory.lobe_top == top / image.shape[0]
+    within = episode.predict(clear)
     assert within.any() and not within[:top].any()
 
 
@@ -89,7 +99,7 @@ def test_with_a_camera_growth_is_bounded_by_its_ground(sun_down_the_lane):
     class Camera:
         ground_valid = ground
 
-    det = RoadDetector.pretrained(filters=FILTERS).set_camera(Camera())
-    mask = det.reset().predict(image)
+    episode = RoadDetector.pretrained(filters=FILTERS).episode(Camera())
+    mask = episode.predict(image)
     assert mask.any() and not (mask & ~ground).any()
     assert mask[: int(np.argmax(remove_glare(image).mask.any(axis=1)))].any()  # up to the horizon, above the lobe

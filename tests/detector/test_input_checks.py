@@ -64,6 +64,11 @@ def _pretrained() -> D.RoadDetector:
     return D.RoadDetector.pretrained()
 
 
+class _Camera:
+    def __init__(self, ground_valid: object) -> None:
+        self.ground_valid = ground_valid
+
+
 #: Exported callables that take no input (and why); everything else is in CASES.
 NOT_ARRAY_FUNCTIONS = {"default_model_path": "takes no arguments"}
 
@@ -101,6 +106,23 @@ CASES: dict[str, list[Case]] = {
         ("range-fit-C", lambda: D.RoadDetector(C=-1.0).fit([IMG], [MASK]), "C"),
         ("type-exact", lambda: _pretrained().predict(IMG, exact="no"), "exact"),  # 'no' ran the exact SVM
         ("range-fit-seed", lambda: D.RoadDetector(random_state=-1).fit([IMG], [MASK]), "random_state"),
+        ("type-memory", lambda: _pretrained().predict_step(IMG, None), "memory"),
+        ("type-ground", lambda: _pretrained().predict_step(IMG, D.GlareMemory(), ground=MASK.tolist()), "ground"),
+        ("type-camera", lambda: _pretrained().episode("front"), "camera"),
+    ],
+    "DetectorEpisode": [
+        ("type", lambda: D.DetectorEpisode(object()), "detector"),  # type: ignore[arg-type]
+        ("type-image", lambda: _pretrained().episode().predict(IMG.tolist()), "image"),
+        ("range", lambda: _pretrained().episode(_Camera(np.zeros((2, 12, 12), bool))), "camera"),
+        ("range-size", lambda: _pretrained().episode().predict(IMG[:4]), "image"),
+        ("finite", lambda: _pretrained().episode().predict(NAN_IMG), "image"),
+    ],
+    "GlareMemory": [
+        ("type", lambda: D.GlareMemory(1.5), "since_lobe"),
+        ("type-top", lambda: D.GlareMemory(0, "0.5"), "lobe_top"),
+        ("range", lambda: D.GlareMemory(-1), "since_lobe"),
+        ("range-top", lambda: D.GlareMemory(0, 1.5), "lobe_top"),
+        ("finite", lambda: D.GlareMemory(0, float("nan")), "lobe_top"),
     ],
     "apply_filters": _image_cases(F.apply_filters),
     "check_model_destination": [

@@ -145,8 +145,10 @@ def test_filters_run_in_front_of_any_detector():
     assert describe(wrapped)["name"] == "Echo"
     half = load_detector(f"{__name__}:Half", filters=("light",))
     assert isinstance(half, FilteredDetector) and describe(half) == {"name": "half", "version": "1"}
-    half.reset()
-    assert half.detector.resets == 1
+    episode = half.episode()
+    assert isinstance(episode, FilteredDetector) and describe(episode) == {"name": "half", "version": "1"}
+    assert half.detector.resets == 1  # the wrapped detector's episode starts with its reset()
+    assert np.array_equal(episode.predict(img), half.predict(img))
 
 
 def test_check_mask_refuses_what_is_not_a_mask():
