@@ -1,4 +1,4 @@
-"""What tyre–road friction costs a policy step (issue 17: at most 10 %): the same
+"""What tyre–road friction costs a policy step (target: at most 10 %): the same
 closed-loop step (render, weather, sensor, oracle driver, highway-env with traffic)
 with friction on and off, side by side; and highway-env's own step alone, where the
 friction circle, the μ look-ups and the traffic's grip planning all happen."""

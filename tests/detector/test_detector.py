@@ -80,7 +80,7 @@ def test_save_load_round_trip_without_pickle(small_detector, heldout_frames, tmp
         assert all(data[k].dtype != object for k in data.files)
     assert meta["format"] == "simroad.RoadDetector" and meta["params"]["lut_bits"] == 6
     loaded = RoadDetector.load(path)
-    assert loaded.svc_ is None and loaded.get_params()["filters"] == ()  # a tuple, as given (issue 12)
+    assert loaded.svc_ is None and loaded.get_params()["filters"] == ()  # a tuple, as given
     img = heldout_frames[0][2]
     np.testing.assert_array_equal(loaded.predict(img), small_detector.predict(img))
     np.testing.assert_array_equal(loaded.predict(img, exact=True), small_detector.predict(img, exact=True))
@@ -168,10 +168,9 @@ def test_train_default_is_reproducible(train_frames):
 
 def test_pretrained_model_meets_clean_frame_targets_in_every_scenario():
     """Clean frames of held-out worlds (100-104, never trained on), every scenario,
-    pooled. simroad 0.1's world met FNR and FPR <= 3 %; the world of issue 14 is
-    harder (grey sidewalks, kerbs and facades, scenery, a camera sensor), as real
-    roads are: the retrained model measures FNR 4.2 %, FPR 3.0 % here. The bounds
-    guard that with some room."""
+    pooled. The world has grey sidewalks, kerbs and facades, scenery and a camera
+    sensor, as real roads do: the shipped model measures FNR 4.2 %, FPR 3.0 % here;
+    the bounds guard that with some room."""
     from simroad.experiments.frames import collect_frames
 
     frames = collect_frames(seeds=range(100, 105), frames_per_seed=4, every=16)

@@ -1,4 +1,4 @@
-"""Every exported callable of simroad.detector refuses bad input by name (issue 13, item 9).
+"""Every exported callable of simroad.detector refuses bad input by name.
 
 The table is keyed by ``simroad.detector.__all__``: an exported callable without an
 entry (or a reason it takes no input) fails :func:`test_every_export_has_an_entry`.

@@ -1,4 +1,4 @@
-"""Model files prove they are whole (issue 13, item 5).
+"""Model files prove they are whole.
 
 Every damaged file -- truncated, bit-flipped, empty, wrong arrays, shapes, dtypes or
 values, a pickle -- raises one SimroadError at ``load`` naming the file; none is ever
