@@ -68,7 +68,7 @@ __all__ = [
     "FilteredDetector",
     "available_detectors",
     "check_detector",
-    "check_mask",
+    "check_prediction",
     "clear_detector_cache",
     "describe",
     "load_detector",
@@ -397,10 +397,10 @@ def predict_alone(detector: Any, image: np.ndarray) -> np.ndarray:
     """The detector's bool (H, W) mask of one frame on its own: the first frame of a new
     episode without a camera (:func:`start_episode`), as when frames from different
     episodes are scored one at a time."""
-    return check_mask(start_episode(detector).predict(image), image.shape[:2], detector)
+    return check_prediction(start_episode(detector).predict(image), image.shape[:2], detector)
 
 
-def check_mask(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:
+def check_prediction(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:
     """A detector's output as a bool (H, W) mask, or a clear error naming the detector."""
     arr = np.asarray(mask)
     if arr.shape != tuple(shape):

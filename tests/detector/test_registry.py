@@ -12,7 +12,7 @@ from simroad.detector import registry
 from simroad.detector.registry import (
     FilteredDetector,
     available_detectors,
-    check_mask,
+    check_prediction,
     clear_detector_cache,
     describe,
     load_detector,
@@ -153,11 +153,11 @@ def test_filters_run_in_front_of_any_detector():
 
 def test_check_mask_refuses_what_is_not_a_mask():
     det = Half()
-    assert check_mask(np.ones((4, 5), np.uint8), (4, 5), det).dtype == bool
+    assert check_prediction(np.ones((4, 5), np.uint8), (4, 5), det).dtype == bool
     with pytest.raises(SimroadError, match=r"'half'.*shape \(5, 4\)"):
-        check_mask(np.ones((5, 4), bool), (4, 5), det)
+        check_prediction(np.ones((5, 4), bool), (4, 5), det)
     with pytest.raises(SimroadError, match="float64, expected a bool mask"):
-        check_mask(np.ones((4, 5)), (4, 5), det)
+        check_prediction(np.ones((4, 5)), (4, 5), det)
 
 
 def test_resolve_factory_finds_the_class():
