@@ -26,7 +26,7 @@ from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.video import overlay_frame
 from simroad.filters import format_filters, parse_filters, remove_highlights, remove_shadows
-from simroad.filters.pipeline import FILTERS
+from simroad.filters.pipeline import FILTER_REGISTRY, FILTERS
 from simroad.metrics.mask import MaskScore
 
 __all__ = [
@@ -43,8 +43,11 @@ __all__ = [
 #: A detector for a filter setting: ``filters -> fitted detector``.
 DetectorFactory = Callable[[tuple[str, ...]], Any]
 
-#: Which ground-truth noise mask a filter's own detection mask is scored against.
-FILTER_MASK_TRUTH = {"shadow": "shadow", "light": "glare"}
+#: The filters that detect where their weather acts (each returns that mask), by name.
+_MASK_DETECTORS: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shadows, "light": remove_highlights}
+#: Which ground-truth noise mask a filter's own detection mask is scored against: the
+#: weather the filter is registered for.
+FILTER_MASK_TRUTH = {name: FILTER_REGISTRY[name].weathers[0] for name in _MASK_DETECTORS}
 
 
 def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> FrameSet:
@@ -85,8 +88,6 @@ def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> Fr
 
 
 def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
-
-    fns: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shadows, "light": remove_highlights}
     scores: dict[str, MaskScore] = {}
     for name in filters:
         truth_name = FILTER_MASK_TRUTH.get(name)
@@ -95,7 +96,7 @@ def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, M
         score = MaskScore()
         for img, noise in zip(frames.images, frames.noise_masks):
             if truth_name in noise:
-                _, detected = fns[name](img)
+                _, detected = _MASK_DETECTORS[name](img)
                 score.update(detected, noise[truth_name])
         if score.n_frames:
             scores[f"{name} filter vs GT {truth_name}"] = score
