@@ -345,6 +345,20 @@ def check_output_dir(name: str, path: Any) -> Path:
     return p
 
 
+def ensure_writable_dir(name: str, path: str | os.PathLike) -> Path:
+    """Create ``path`` if needed and check it is a writable directory."""
+    p = check_output_dir(name, path)  # a path (not 5 or ''), not a file nor below one
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InvalidParameterError(
+            f"{name}: cannot create directory {str(p)!r} ({exc.strerror}). Choose a writable path."
+        ) from None
+    if not p.is_dir() or not os.access(p, os.W_OK):
+        raise InvalidParameterError(f"{name}: {str(p)!r} is not a writable directory. Choose a writable path.")
+    return p
+
+
 def check_output_file(name: str, path: Any, *, suffixes: Iterable[str] | None = None) -> Path:
     """Check that a file can be written at ``path`` (its folder may still be missing); return a Path.
 
@@ -395,4 +409,4 @@ def check_input_file(name: str, path: Any) -> Path:
     return p
 
 
-__all__ += ["check_input_dir", "check_input_file", "check_output_dir", "check_output_file"]
+__all__ += ["check_input_dir", "check_input_file", "check_output_dir", "check_output_file", "ensure_writable_dir"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from simroad.experiments.export import ensure_writable_dir
+from simroad.core.validation import ensure_writable_dir
 
 __all__ = ["pyplot", "save_figure", "start_figure"]
 

@@ -29,11 +29,10 @@ import traceback
 from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
-from simroad.core.validation import check_choice, check_int_in_range
+from simroad.core.validation import check_choice, check_int_in_range, ensure_writable_dir
 from simroad.errors import InvalidParameterError
 from simroad.experiments._ray_backend import run_on_ray
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
-from simroad.experiments.export import ensure_writable_dir
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import OutputLock
 from simroad.experiments.pool import Interrupts, run_in_workers

@@ -14,10 +14,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from simroad.core.validation import check_output_dir
+from simroad.core.validation import check_output_dir, ensure_writable_dir
 from simroad.errors import InvalidParameterError
 from simroad.experiments.episode import EpisodeSpec, run_episode
-from simroad.experiments.export import ensure_writable_dir
 from simroad.filters import parse_filters
 
 __all__ = ["DEMO_NOISES", "write_videos"]

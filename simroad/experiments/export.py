@@ -11,26 +11,12 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from simroad.core.validation import check_int_in_range, check_output_dir
+from simroad.core.validation import check_int_in_range, check_output_dir, ensure_writable_dir
 from simroad.envs import RoadCamEnv
 from simroad.errors import InvalidParameterError
 from simroad.experiments.rollout import drive_autopilot
 
-__all__ = ["ensure_writable_dir", "export_frames"]
-
-
-def ensure_writable_dir(name: str, path: str | os.PathLike) -> Path:
-    """Create ``path`` if needed and check it is a writable directory."""
-    p = check_output_dir(name, path)  # a path (not 5 or ''), not a file nor below one
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InvalidParameterError(
-            f"{name}: cannot create directory {str(p)!r} ({exc.strerror}). Choose a writable path."
-        ) from None
-    if not p.is_dir() or not os.access(p, os.W_OK):
-        raise InvalidParameterError(f"{name}: {str(p)!r} is not a writable directory. Choose a writable path.")
-    return p
+__all__ = ["export_frames"]
 
 
 def _write_png(path: Path, rgb_or_grey: np.ndarray) -> None:
