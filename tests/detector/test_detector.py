@@ -135,6 +135,7 @@ def test_fit_rejects_bad_training_sets(train_frames):
             RoadDetector(nonroad_weight=bad).fit(imgs, masks)
 
 
+@pytest.mark.slow
 def test_nonroad_weight_trades_false_road_for_missed_road(train_frames, heldout_frames):
     """A higher cost on non-road training pixels must call fewer pixels road: lower
     FPR, higher FNR, on frames the model has not seen (exact SVM, no morphology)."""
@@ -148,6 +149,7 @@ def test_nonroad_weight_trades_false_road_for_missed_road(train_frames, heldout_
     assert rates[1]["fpr"] < rates[0]["fpr"] and rates[1]["fnr"] > rates[0]["fnr"], rates
 
 
+@pytest.mark.slow
 def test_train_default_is_reproducible(train_frames):
     imgs, masks = train_frames[0][:2], train_frames[1][:2]
     a = train_default(imgs, masks, rng=np.random.default_rng(5))
@@ -156,6 +158,7 @@ def test_train_default_is_reproducible(train_frames):
     assert a.filters == () and a.morphology
 
 
+@pytest.mark.slow
 def test_pretrained_model_meets_clean_frame_targets_in_every_scenario():
     """Clean frames of held-out worlds (100-104, never trained on), every scenario,
     pooled. simroad 0.1's world met FNR and FPR <= 3 %; the world of issue 14 is
