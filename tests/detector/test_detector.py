@@ -12,7 +12,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from simroad import SimroadError
-from simroad.detector import RoadDetector, default_model_path, train_default
+from simroad.detector import RoadDetector, default_model_path, postprocess, train_default
 from simroad.envs import SCENARIO_NAMES
 from simroad.filters.pipeline import FILTERS
 from simroad.metrics import MaskScore
@@ -35,6 +35,10 @@ def test_every_filter_subset_runs_and_morphology_switches(small_detector, heldou
     with_m = det.predict(img)
     without = det.set_params(morphology=False).predict(img)
     assert with_m.shape == without.shape == img.shape[:2]
+    # A clean frame (no veil, no sun's lobe): the switch adds exactly §III's morphology,
+    # and on this frame that changes the mask.
+    np.testing.assert_array_equal(with_m, postprocess(without))
+    assert not np.array_equal(with_m, without)
 
 
 def test_init_only_stores_and_clone_round_trips():
