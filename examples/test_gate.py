@@ -16,6 +16,8 @@ import pytest
 
 from simroad.experiments import EpisodeSpec, run_episode
 
+pytestmark = pytest.mark.slow  # trains the worked example, then closed-loop episodes
+
 DETECTOR = os.environ.get("SIMROAD_GATE_DETECTOR", f"{Path(__file__).with_name('pixel_detector.py')}:LabPixelDetector")
 
 #: scenario, weather, severity, filters. (The worked example passes these; on the

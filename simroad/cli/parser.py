@@ -230,9 +230,7 @@ def _add_ablate(sub: Any) -> None:
     p.add_argument(
         "--ray-address",
         dest="ray_address",
-        type=T.checked(
-            check_ray_address, "ray_address", bad=[("empty", ""), ("no port", "localhost"), ("port", "host:0")]
-        ),
+        type=T.checked(check_ray_address, "ray_address"),
         help="Ray cluster address, HOST:PORT or auto (with --backend ray)",
     )
     p.add_argument("--out", type=T.output_dir(), help="output directory")

@@ -28,6 +28,7 @@ def _on_some_lane(network, xy: np.ndarray) -> np.ndarray:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["racetrack", "highway", "winding", "town"])
 def test_road_mask_agrees_with_lane_geometry(scenario):
     agree, total = 0, 0

@@ -116,6 +116,7 @@ def test_read_path_matches_the_true_lane_centre_on_a_curve():
     assert np.median(errs) < 0.15 and max(errs) < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario, seed, steps", [("winding", 1, 150), ("highway", 0, 60)])
 def test_oracle_keeps_its_lane(scenario, seed, steps):
     env = RoadCamEnv(scenario=scenario, longitudinal=True, traffic=False)

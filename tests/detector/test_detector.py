@@ -12,7 +12,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from simroad import SimroadError
-from simroad.detector import GlareMemory, RoadDetector, default_model_path, train_default
+from simroad.detector import GlareMemory, RoadDetector, default_model_path, postprocess, train_default
 from simroad.envs import SCENARIO_NAMES
 from simroad.filters.pipeline import FILTERS
 from simroad.metrics import MaskScore
@@ -35,6 +35,10 @@ def test_every_filter_subset_runs_and_morphology_switches(small_detector, heldou
     with_m = det.predict(img)
     without = det.set_params(morphology=False).predict(img)
     assert with_m.shape == without.shape == img.shape[:2]
+    # A clean frame (no veil, no sun's lobe): the switch adds exactly §III's morphology,
+    # and on this frame that changes the mask.
+    np.testing.assert_array_equal(with_m, postprocess(without))
+    assert not np.array_equal(with_m, without)
 
 
 def test_init_only_stores_and_clone_round_trips():
@@ -145,6 +149,7 @@ def test_fit_rejects_bad_training_sets(train_frames):
             RoadDetector(nonroad_weight=bad).fit(imgs, masks)
 
 
+@pytest.mark.slow
 def test_nonroad_weight_trades_false_road_for_missed_road(train_frames, heldout_frames):
     """A higher cost on non-road training pixels must call fewer pixels road: lower
     FPR, higher FNR, on frames the model has not seen (exact SVM, no morphology)."""
@@ -158,6 +163,7 @@ def test_nonroad_weight_trades_false_road_for_missed_road(train_frames, heldout_
     assert rates[1]["fpr"] < rates[0]["fpr"] and rates[1]["fnr"] > rates[0]["fnr"], rates
 
 
+@pytest.mark.slow
 def test_train_default_is_reproducible(train_frames):
     imgs, masks = train_frames[0][:2], train_frames[1][:2]
     a = train_default(imgs, masks, rng=np.random.default_rng(5))
@@ -166,6 +172,7 @@ def test_train_default_is_reproducible(train_frames):
     assert a.filters == () and a.morphology
 
 
+@pytest.mark.slow
 def test_pretrained_model_meets_clean_frame_targets_in_every_scenario():
     """Clean frames of held-out worlds (100-104, never trained on), every scenario,
     pooled. The world has grey sidewalks, kerbs and facades, scenery and a camera

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -14,11 +16,17 @@ from simroad.envs import SCENARIO_NAMES, RoadCamEnv
 from simroad.experiments.rollout import autopilot_env_action
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", SCENARIO_NAMES)
-def test_check_env_passes(scenario):
+def test_check_env_passes_without_a_warning(scenario):
+    """gymnasium's checker reports most contract breaches as warnings, not errors:
+    any warning fails the test."""
     env = gym.make(simroad.ENV_ID, scenario=scenario, render_mode="rgb_array")
-    check_env(env.unwrapped)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env.unwrapped)
     env.close()
+    assert not caught, [f"{w.category.__name__}: {w.message}" for w in caught]
 
 
 @pytest.mark.parametrize("scenario", SCENARIO_NAMES)
@@ -76,6 +84,7 @@ def test_steering_turns_the_car_to_the_right():
     assert env.vehicle.heading > h0  # heading grows to the right in highway-env
 
 
+@pytest.mark.slow
 def test_autopilot_keeps_the_winding_road():
     env = RoadCamEnv(scenario="winding", traffic=False)
     env.reset(seed=3)

@@ -13,6 +13,8 @@ from simroad.cli.main import main
 from simroad.experiments.ablate import run_ablation
 from simroad.experiments.grid import AblationGrid, cell_key
 
+pytestmark = pytest.mark.slow  # a real sweep on two Ray workers
+
 #: The worked example's detector (examples/pixel_detector.py), trained small for the test.
 EXAMPLE = f"{Path(__file__).resolve().parents[2] / 'examples' / 'pixel_detector.py'}:LabPixelDetector"
 GRID = AblationGrid(

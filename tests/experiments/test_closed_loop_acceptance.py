@@ -7,6 +7,8 @@ import pytest
 
 from simroad.experiments.episode import EpisodeSpec, run_episode
 
+pytestmark = pytest.mark.slow  # closed-loop episodes of 7-15 s each
+
 ROADS = [("racetrack", 0, None)] + [("winding", seed, 1000.0) for seed in range(1, 6)]
 
 

@@ -16,6 +16,8 @@ import pytest
 
 from simroad.cli.main import main
 
+pytestmark = pytest.mark.slow  # trains the worked example, then episodes
+
 ROOT = Path(__file__).resolve().parents[2]
 SPEC = "examples/pixel_detector.py:LabPixelDetector"
 SMALL = ["--detector-option", "seeds=1", "--detector-option", "frames=1", "--detector-option", "samples=2000"]

@@ -24,6 +24,7 @@ def cache():
     return {}
 
 
+@pytest.mark.slow
 def test_light_filter_lowers_fnr_plus_fpr_under_strong_glare(cache):
     row = filter_effect("glare", ["light"], seeds=(110, 111), frames=3, severity=0.7, cache=cache)
     assert row["frames"] == 2 * 3 * len(SCENARIO_NAMES)  # seeds x frames x scenarios
@@ -33,6 +34,7 @@ def test_light_filter_lowers_fnr_plus_fpr_under_strong_glare(cache):
     assert row["better"] is True
 
 
+@pytest.mark.slow
 def test_paper_light_filter_leaves_grey_asphalt_glare_in_place(cache):
     """Eq. 27 cannot separate white light from grey asphalt: the paper's variant gains nothing."""
     paper = filter_effect(
@@ -45,6 +47,7 @@ def test_paper_light_filter_leaves_grey_asphalt_glare_in_place(cache):
     assert gain(improved) > gain(paper) + 0.05
 
 
+@pytest.mark.slow
 def test_improved_rain_snow_filter_lifts_the_snow_veil(cache):
     """In snow the haze, not the flakes, costs the far road: the improved rain/snow
     filter (haze removal first) must lower FNR + FPR, and by more than the paper's."""
@@ -60,6 +63,7 @@ def test_improved_rain_snow_filter_lifts_the_snow_veil(cache):
     assert total(improved) < total(paper)
 
 
+@pytest.mark.slow
 def test_table_rows_and_format(cache):
     rows = filter_effect_table(seeds=(110,), frames=2, severity=0.6, noises=("shadow",), cache=cache)
     assert [(r["noise"], r["filters"]) for r in rows] == [

@@ -16,6 +16,8 @@ import pytest
 from simroad import SimroadError
 from simroad.experiments.episode import EpisodeSpec, run_episode
 
+pytestmark = pytest.mark.slow  # episodes with plug-in detectors, one in a fresh interpreter
+
 ROOT = Path(__file__).resolve().parents[2]
 
 DETECTOR = textwrap.dedent(

@@ -17,6 +17,8 @@ from simroad.detector.registry import load_detector
 from simroad.experiments.frames import FrameSet, collect_frames
 from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, weathered
 
+pytestmark = pytest.mark.slow  # renders and weathers photo sets
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

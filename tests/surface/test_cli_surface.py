@@ -3,10 +3,11 @@ malformed files and flags that do not apply: each must exit with status 2, name 
 flag (or config key), print no traceback, and start no episode, frame, sweep or
 training (the ``no_work`` guard turns any of those into a failure).
 
-Cases are generated from the parser itself: each option's ``type=`` function carries
-the values it refuses (``bad_inputs``, see :mod:`simroad.cli.types`), so a new flag
-with a known type is covered automatically; a flag without a generator or an entry
-in ``EXTRA`` fails :func:`test_every_flag_has_cases`. The ablate grid file's cases are
+Cases are generated from the parser itself: each option's ``type=`` function is traced
+back to the :mod:`simroad.cli.types` factory (or library check) that made it, and
+:data:`BAD_INPUTS` lists the values that factory's types refuse, so a new flag with a
+known type is covered automatically; a flag without cases there or in ``EXTRA`` fails
+:func:`test_every_flag_has_cases`. The ablate grid file's cases are
 generated from :class:`AblationGrid`'s fields and the run keys.
 """
 
@@ -14,6 +15,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import inspect
+from collections.abc import Callable
 
 import pytest
 
@@ -43,7 +46,70 @@ BASE: dict[str, tuple[list[str], dict[str, str]]] = {
     "videos": ([], {"--out": "{ok}/videos"}),
 }
 
-#: Cases for flags whose type carries no ``bad_inputs`` (or that need more): (why, value).
+#: Values refused by the argparse types of each :mod:`simroad.cli.types` factory (or each
+#: library check wrapped by ``checked``), from the factory's arguments: (why, value).
+#: ``{file}``, ``{dir}``, ``{missing}`` stand for a regular file, a directory and a path
+#: that does not exist.
+BAD_INPUTS: dict[str, Callable[..., list[tuple[str, str]]]] = {
+    "int_in": lambda low, high, **_: [
+        ("wrong type", "abc"), ("not an integer", "1.5"),
+        ("below the range", str(low - 1)), ("above the range", str(high + 1)),
+    ],
+    "finite_float": lambda **_: [("wrong type", "abc"), ("not finite", "inf"), ("not a number", "nan")],
+    "float_in": lambda low, high, **_: [
+        ("wrong type", "abc"), ("not finite", "nan"),
+        ("below the range", str(low - 1)), ("above the range", str(high + 1)),
+    ],
+    "float_list": lambda low, high, **_: [
+        ("wrong type", "abc"), ("one item not a number", f"{low:g},x"), ("empty", ","),
+        ("empty item", f"{low:g},,{high:g}"), ("repeated", f"{high:g},{high:g}"),
+        ("above the range", str(high + 1)), ("not finite", "nan"),
+    ],
+    "choice": lambda **_: [("unknown name", "bogus"), ("wrong type", "5"), ("empty", "")],
+    "choice_list": lambda valid, **_: [
+        ("unknown name", "bogus"), ("one unknown name", f"{valid[0]},bogus"), ("empty", ","), ("wrong type", "5"),
+        ("empty item", f"{valid[0]},,{valid[-1]}"), ("repeated", f"{valid[0]},{valid[0]}"),
+    ],
+    "weather": lambda **_: [("unknown name", "rian"), ("repeated", "rain+rain"), ("empty", "")],
+    "weather_list": lambda **_: [
+        ("unknown name", "clear,rian"), ("empty", ","), ("empty item", "rain,,snow"), ("repeated", "rain,rain"),
+    ],
+    "filter_set": lambda **_: [("unknown name", "bogus"), ("wrong type", "5")],
+    "filter_set_list": lambda **_: [
+        ("unknown name", "none,bogus"), ("empty", ","), ("empty item", "none,"), ("repeated", "none,none"),
+    ],
+    "text": lambda **_: [("empty", ""), ("blank", "  ")],
+    "output_dir": lambda **_: [("below a regular file", "{file}/sub"), ("a regular file", "{file}")],
+    "output_file": lambda suffixes, **_: [
+        ("below a regular file", "{file}/sub/out.png"), ("a directory", "{dir}"),
+        *([] if suffixes is None else [("unsupported file type", "{dir}/out.xyz")]),
+    ],
+    "input_dir": lambda **_: [("missing", "{missing}"), ("a regular file", "{file}")],
+    "input_file": lambda **_: [("missing", "{missing}"), ("a directory", "{dir}")],
+    "detector_spec": lambda **_: [("unknown name", "bogus"), ("empty", ""), ("no such file", "/no/x.py:D")],
+    "detector_specs": lambda **_: [("unknown name", "paper,bogus"), ("empty", ","), ("repeated", "paper,paper")],
+    "detector_option": lambda **_: [("no value", "fraction"), ("no key", "=3"), ("bad key", "a b=3")],
+    # library checks the parser wraps with ``checked``
+    "_mu": lambda **_: [("wrong type", "abc"), ("zero", "0"), ("above the range", "2"), ("not finite", "nan")],
+    "_wiper_period": lambda **_: [
+        ("unknown name", "sometimes"), ("shorter than a cycle", "0.5"), ("negative", "-1"), ("not finite", "nan"),
+    ],
+    "check_ray_address": lambda **_: [("empty", ""), ("no port", "localhost"), ("port", "host:0")],
+}  # fmt: skip
+
+
+def _bad_inputs(type_fn: Callable[[str], object]) -> list[tuple[str, str]]:
+    """:data:`BAD_INPUTS` of the factory that made ``type_fn`` (its ``<locals>`` prefix),
+    called with the factory's arguments as the closure holds them; a type made by
+    ``checked`` is traced to the check it wraps."""
+    factory = type_fn.__qualname__.split(".<locals>")[0]
+    args = inspect.getclosurevars(type_fn).nonlocals
+    if factory == "checked":
+        return _bad_inputs(args["check"])
+    return BAD_INPUTS[factory](**args) if factory in BAD_INPUTS else []
+
+
+#: Cases for flags whose type has no :data:`BAD_INPUTS` (or that need more): (why, value).
 EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("frames", "scenario"): [("unknown name", "higway"), ("wrong type", "5")],
     ("episode", "scenario"): [("unknown name", "higway"), ("wrong type", "5")],
@@ -100,7 +166,7 @@ def _flag_cases() -> list:
             names = (_flag(action), action.dest)
             if isinstance(action, argparse._StoreTrueAction):
                 cases.append(pytest.param(_argv(cmd, action, None), names, id=f"{cmd} {_flag(action)}: given a value"))
-            for why, value in getattr(action.type, "bad_inputs", ()):
+            for why, value in _bad_inputs(action.type) if action.type is not None else ():
                 cases.append(pytest.param(_argv(cmd, action, value), names, id=f"{cmd} {_flag(action)}: {why}"))
             if action.choices is not None and action.type is None:
                 for why, value in (("unknown choice", "bogus"), ("empty", "")):
@@ -146,7 +212,7 @@ def test_every_flag_refuses_bad_values(argv, names, files, no_work, capsys):
 
 
 def test_every_flag_has_cases():
-    """A new flag needs a type with ``bad_inputs`` or an EXTRA entry (two cases at
+    """A new flag needs a type with :data:`BAD_INPUTS` or an EXTRA entry (two cases at
     least: a wrong type and an out-of-range value; one for a plain on/off flag)."""
     counts: dict[tuple[str, str], int] = {}
     for case in FLAG_CASES:
