@@ -18,18 +18,28 @@ from typing import Any
 from simroad.cli.env_options import env_options
 from simroad.cli.types import MAX_SEED, given
 from simroad.core.validation import check_choice, check_output_dir
+from simroad.detector import RoadDetector
 from simroad.detector.registry import parse_detector_options
 from simroad.errors import InvalidParameterError
 from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
-from simroad.experiments.evaluate import evaluate_detector, format_table, qualitative_figure
+from simroad.experiments.evaluate import (
+    detector_factory,
+    evaluate_detector,
+    format_table,
+    load_image_folder,
+    qualitative_figure,
+)
 from simroad.experiments.export import export_frames
 from simroad.experiments.figures import camera_figure, places_figure
 from simroad.experiments.filter_effect import filter_effect_table, format_filter_effect
+from simroad.experiments.friction_figure import friction_figure
+from simroad.experiments.gallery import render_gallery, render_wiper_sequence
 from simroad.experiments.gate import check_requirements, parse_requirement
 from simroad.experiments.grid import AblationGrid, load_grid_file
 from simroad.experiments.report import build_report
+from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
 from simroad.experiments.training import train_detector
 from simroad.filters.pipeline import parse_filters
 
@@ -250,8 +260,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def _evaluate_photos(args: argparse.Namespace) -> int:
     """The weather on the user's photos: a robustness table per noise and severity."""
-    from simroad.experiments.evaluate import detector_factory, load_image_folder
-    from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
 
     if args.figure:
         raise InvalidParameterError(
@@ -276,7 +284,6 @@ def _evaluate_photos(args: argparse.Namespace) -> int:
 
 def cmd_filter_effect(args: argparse.Namespace) -> int:
     """``simroad filter-effect``: each filter with and without on its weather."""
-    from simroad.detector import RoadDetector  # scikit-learn: only for this command
 
     seeds = seed_range(args.seed_start, args.seeds)
     cache: dict = {}
@@ -307,16 +314,10 @@ def cmd_figure(args: argparse.Namespace) -> int:
     elif args.what == "places":
         path = places_figure(args.out, seed=args.seed)
     elif args.what == "friction":
-        from simroad.experiments.friction_figure import friction_figure
-
         path = friction_figure(args.out)
     elif args.what == "windscreen":
-        from simroad.experiments.gallery import render_wiper_sequence
-
         path = render_wiper_sequence(args.out, seed=args.seed)
     else:
-        from simroad.experiments.gallery import render_gallery
-
         path = render_gallery(args.out, seed=args.seed)
     print(f"wrote {path}")
     return 0

@@ -19,7 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from simroad.core.validation import check_choice, check_output_dir, check_output_file
+from simroad.detector.registry import parse_detector_options, resolve_factory
 from simroad.errors import InvalidParameterError, SimroadError
+from simroad.filters import parse_filters
+from simroad.noise import parse_noise
 
 __all__ = [
     "MAX_SEED",
@@ -194,28 +197,24 @@ def _each(value: str, check: Callable[[str], Any], example: str) -> str:
 
 def weather() -> Callable[[str], str]:
     """A weather spec such as ``rain`` or ``rain+glare`` (returned as typed)."""
-    from simroad.noise import parse_noise
 
     return checked(lambda value: (parse_noise(value), value)[1], "noise")
 
 
 def weather_list() -> Callable[[str], str]:
     """Comma-separated weather specs (returned as typed)."""
-    from simroad.noise import parse_noise
 
     return checked(lambda value: _each(value, parse_noise, "clear,rain+glare"), "list")
 
 
 def filter_set() -> Callable[[str], str]:
     """A filter setting: ``none``, ``all`` or names joined by ``+`` (returned as typed)."""
-    from simroad.filters import parse_filters
 
     return checked(lambda value: (parse_filters(value), value)[1], "filters")
 
 
 def filter_set_list() -> Callable[[str], str]:
     """Comma-separated filter settings (returned as typed)."""
-    from simroad.filters import parse_filters
 
     return checked(lambda value: _each(value, parse_filters, "none,all"), "list")
 
@@ -326,7 +325,6 @@ def detector_spec() -> Callable[[str], str]:
     """A detector spec (see :mod:`simroad.detector.registry`), resolved now (returned as typed)."""
 
     def check(value: str) -> str:
-        from simroad.detector.registry import resolve_factory
 
         resolve_factory(value)
         return value.strip()
@@ -336,7 +334,6 @@ def detector_spec() -> Callable[[str], str]:
 
 def detector_specs() -> Callable[[str], str]:
     """Comma-separated detector specs, each resolved now (returned as typed)."""
-    from simroad.detector.registry import resolve_factory
 
     return checked(lambda value: _each(value, resolve_factory, "paper,mine.py:Detector"), "detectors")
 
@@ -346,7 +343,6 @@ def detector_option(*, targeted: bool = False) -> Callable[[str], str]:
     (returned as typed; the value is read by the registry)."""
 
     def check(value: str) -> str:
-        from simroad.detector.registry import parse_detector_options
 
         pair = value.rpartition("@")[2] if targeted else value
         parse_detector_options([pair])
