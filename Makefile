@@ -32,11 +32,14 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check simroad tests benchmarks examples
 	$(BIN)/mypy
 
+# worksteal: a worker that runs dry takes half of the other's queue, so no long test
+# runs alone at the end. test-fast runs a third worker: its short tests spend part of
+# their time waiting on subprocesses and files, which the third worker fills.
 test: lint
-	$(BIN)/python -m pytest -q -n 2
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
 test-fast: lint
-	$(BIN)/python -m pytest -q -n 2 -m "not slow"
+	$(BIN)/python -m pytest -q -n 3 --dist worksteal -m "not slow"
 
 paper: $(STAMP)
 	$(BIN)/simroad ablate --config experiments/paper.toml
