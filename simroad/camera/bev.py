@@ -4,14 +4,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-if TYPE_CHECKING:
-    from simroad.camera.vehicles import VehicleBox
-    from simroad.camera.world import WorldRaster
+from simroad.camera.vehicles import VehicleBox
+from simroad.camera.world import WorldRaster
 
 __all__ = ["render_bev"]
 

@@ -3,13 +3,11 @@
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-if TYPE_CHECKING:
-    from simroad.noise.context import FrameState
+from simroad.noise.context import FrameState
 
 __all__ = ["fast_exp", "gray3", "material_weights", "rgb_scalar", "smoothstep"]
 
