@@ -142,8 +142,8 @@ class RoadDetector(BaseEstimator):
     ``simroad evaluate-detector`` on held-out worlds; the README gives its FNR and FPR.
     Classifying by the lookup table is two orders of magnitude faster than the literal
     per-pixel ``SVC.predict``, whose cost grows with the number of support vectors;
-    with all three filters the filters cost several times the classification. ``make bench`` (``benchmarks/bench_detector.py``)
-    measures both on the machine at hand.
+    with all three filters the filters cost several times the classification.
+    ``make bench`` (``benchmarks/bench_detector.py``) measures both on the machine at hand.
     """
 
     def __init__(

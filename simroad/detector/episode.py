@@ -22,7 +22,7 @@ same masks and the same next memory.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeGuard
 
 import numpy as np
 
@@ -99,11 +99,16 @@ class GlareMemory:
         return bound
 
 
+def _is_ground_mask(value: Any) -> TypeGuard[np.ndarray]:
+    """Whether ``value`` is a bool (H, W) array, the form of ``camera.ground_valid``."""
+    return isinstance(value, np.ndarray) and value.ndim == 2 and value.dtype == np.bool_
+
+
 def _check_ground(name: str, ground: Any) -> np.ndarray | None:
     """``ground`` as it is if it is None or a bool (H, W) array, else an error naming ``name``."""
     if ground is None:
         return None
-    if not isinstance(ground, np.ndarray) or ground.ndim != 2 or ground.dtype != np.bool_:
+    if not _is_ground_mask(ground):
         raise InvalidParameterError(
             f"{name}: expected None or a bool (H, W) ground mask (camera.ground_valid), "
             f"got {type(ground).__name__}{_shape_dtype(ground)}."
@@ -117,7 +122,7 @@ def _camera_ground(camera: Any) -> np.ndarray | None:
     if camera is None:
         return None
     ground = getattr(camera, "ground_valid", None)
-    if not isinstance(ground, np.ndarray) or ground.ndim != 2 or ground.dtype != np.bool_:
+    if not _is_ground_mask(ground):
         raise InvalidParameterError(
             f"camera: expected a calibrated camera with a bool (H, W) ground_valid mask (env.camera), "
             f"got {type(camera).__name__}; pass the environment's camera, or None for frames without one."
