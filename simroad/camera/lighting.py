@@ -21,7 +21,7 @@ __all__ = ["NOMINAL_EXPOSURE", "face_irradiance", "radiance"]
 
 #: Linear value of a perfect white horizontal surface in clear (overcast) weather:
 #: aged asphalt (albedo ~0.12) comes out near sRGB 100, concrete (~0.3) near 150.
-NOMINAL_EXPOSURE = 1.2
+NOMINAL_EXPOSURE = 0.5
 
 
 def face_irradiance(normal_z: np.ndarray | float, ground_albedo: float = 0.15) -> np.ndarray:

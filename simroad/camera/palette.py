@@ -16,18 +16,27 @@ from dataclasses import dataclass
 import numpy as np
 
 from simroad.camera.materials import draw_albedo
+from simroad.camera.profile import CameraProfile
 from simroad.core.names import PROFILES
 from simroad.core.validation import check_choice, normalize_rng
 
 __all__ = ["ROADSIDE_KINDS", "SHOULDER_KINDS", "Palette", "draw_palette"]
 
+#: Gloss of fresh asphalt's binder (aged asphalt: down to half of it).
+_SHEEN_RANGE = (0.1, 0.4)
+
 #: Roadside materials a palette can use (``dirt`` is dry soil, ``pavement`` concrete).
 ROADSIDE_KINDS = ("grass", "dirt", "gravel", "pavement")
-#: Rural shoulder materials.
-SHOULDER_KINDS = ("gravel", "dirt", "concrete")
+#: Rural shoulder materials (``asphalt``: a paved shoulder, older than the lanes).
+SHOULDER_KINDS = ("asphalt", "gravel", "dirt", "concrete")
+#: How often each shoulder kind is drawn: most rural roads in service have paved or
+#: gravel shoulders (FHWA, Highway Statistics, shoulder type by functional class).
+_SHOULDER_P = {"asphalt": 0.4, "gravel": 0.3, "dirt": 0.2, "concrete": 0.1}
+#: Sidewalk materials: tarmac footways are most common in the UK and much of Europe,
+#: concrete slabs and poured concrete the rest (Department for Transport, Footway
+#: and Cycle Route Design, Construction and Maintenance Guide, 2003).
+_SIDEWALK_P = {"asphalt": 0.45, "concrete_aged": 0.4, "concrete": 0.15}
 
-# Probability that a world's road is aged asphalt (most roads in service are).
-_P_AGED = 0.8
 # Roadside kind weights of an urban street (a verge beyond the sidewalk).
 _URBAN_ROADSIDE_P = {"grass": 0.35, "dirt": 0.1, "gravel": 0.15, "pavement": 0.4}
 
@@ -67,9 +76,11 @@ class Palette:
     sidewalk: tuple[float, float, float]
     asphalt_age: float
     marking_wear: float  # 0 = fresh paint, 1 = mostly worn off
+    sheen: float  # share of smooth binder reflecting the sky (:mod:`simroad.camera._sheen`)
     shoulder_width_m: float
     kerb_width_m: float = 0.0
     sidewalk_width_m: float = 0.0
+    sidewalk_kind: str = "concrete_aged"  # asphalt, concrete_aged or concrete
 
     @property
     def verge_width_m(self) -> float:
@@ -93,11 +104,24 @@ def _roadside_albedos(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, 
     return draw_albedo("concrete_aged" if rng.random() < 0.6 else "concrete", rng), draw_albedo("concrete_aged", rng)
 
 
-def _shoulder_albedo(kind: str, rng: np.random.Generator) -> np.ndarray:
+def _shoulder_albedo(kind: str, rng: np.random.Generator, asphalt_scale: float) -> np.ndarray:
+    if kind == "asphalt":  # older than the lanes, untrafficked: dust and debris, no polish
+        return np.clip(draw_albedo("asphalt_aged", rng) * asphalt_scale * rng.uniform(0.7, 1.0), 0.0, 1.0)
     return draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
 
 
-def draw_palette(rng: np.random.Generator | int, roadside: str | None = None, *, profile: str = "rural") -> Palette:
+def _choice(weights: dict[str, float], rng: np.random.Generator) -> str:
+    p = np.array(list(weights.values()))
+    return str(rng.choice(list(weights), p=p / p.sum()))
+
+
+def draw_palette(
+    rng: np.random.Generator | int,
+    roadside: str | None = None,
+    *,
+    profile: str = "rural",
+    camera_profile: CameraProfile | None = None,
+) -> Palette:
     """Draw the ground materials of one world from ``rng``.
 
     Parameters
@@ -109,6 +133,9 @@ def draw_palette(rng: np.random.Generator | int, roadside: str | None = None, *,
     profile : str
         ``rural`` (shoulder 0.5-2.5 m, then the roadside) or ``urban`` (kerb
         0.15-0.3 m and sidewalk 1.5-4 m, then the roadside).
+    camera_profile : CameraProfile, optional
+        Its ``aged_share`` (the share of worn asphalt) and ``asphalt_scale`` (a factor
+        on the asphalt's albedo); simroad's default when None.
 
     Returns
     -------
@@ -118,21 +145,30 @@ def draw_palette(rng: np.random.Generator | int, roadside: str | None = None, *,
     check_choice("profile", profile, PROFILES)
     if roadside is not None:
         check_choice("roadside", roadside, ROADSIDE_KINDS)
-    aged = rng.random() < _P_AGED
+    cp = camera_profile if camera_profile is not None else CameraProfile()
+    # Drawn first: the binder's gloss, highest on fresh asphalt, lower as the aggregate is exposed.
+    gloss = float(rng.uniform(*_SHEEN_RANGE))
+    aged = rng.random() < cp.aged_share
     age = float(rng.uniform(0.45, 1.0) if aged else rng.uniform(0.0, 0.3))
     fresh, old = draw_albedo("asphalt_fresh", rng), draw_albedo("asphalt_aged", rng)
-    asphalt = fresh + min(1.0, age * 1.25) * (old - fresh)
+    sheen = gloss * (1.0 - 0.5 * age)
+    asphalt = np.clip((fresh + min(1.0, age * 1.25) * (old - fresh)) * cp.asphalt_scale, 0.0, 1.0)
     patch = draw_albedo("asphalt_fresh", rng) if rng.random() < 0.7 else draw_albedo("asphalt_aged", rng)
+    patch = np.clip(patch * cp.asphalt_scale, 0.0, 1.0)
     if profile == "urban":
         p = np.array([_URBAN_ROADSIDE_P[k] for k in ROADSIDE_KINDS])
         kind = roadside or str(rng.choice(ROADSIDE_KINDS, p=p / p.sum()))
     else:
         kind = roadside or str(rng.choice(ROADSIDE_KINDS))
     rs, rs_alt = _roadside_albedos(kind, rng)
-    shoulder = str(rng.choice(SHOULDER_KINDS))
-    sh = _shoulder_albedo(shoulder, rng)
+    shoulder = _choice(_SHOULDER_P, rng)
+    sh = _shoulder_albedo(shoulder, rng, cp.asphalt_scale)
     kerb = draw_albedo("kerb_stone", rng)
-    sidewalk = draw_albedo("concrete_aged" if rng.random() < 0.7 else "concrete", rng)
+    walk = _choice(_SIDEWALK_P, rng)
+    if walk == "asphalt":
+        sidewalk = np.clip(draw_albedo("asphalt_aged", rng) * cp.asphalt_scale * rng.uniform(0.75, 1.0), 0.0, 1.0)
+    else:
+        sidewalk = draw_albedo(walk, rng)
     urban = profile == "urban"
     return Palette(
         profile=profile,
@@ -146,8 +182,10 @@ def draw_palette(rng: np.random.Generator | int, roadside: str | None = None, *,
         roadside_alt=_t(rs_alt),
         kerb=_t(kerb),
         sidewalk=_t(sidewalk),
+        sidewalk_kind=walk,
         asphalt_age=age,
         marking_wear=float(rng.uniform(0.0, 0.6) * (0.4 + age)),
+        sheen=sheen,
         shoulder_width_m=0.0 if urban else float(rng.uniform(0.5, 2.5)),
         kerb_width_m=float(rng.uniform(0.15, 0.3)) if urban else 0.0,
         sidewalk_width_m=float(rng.uniform(1.5, 4.0)) if urban else 0.0,

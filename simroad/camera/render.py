@@ -21,11 +21,12 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from simroad.camera import _ground_blur, _raster
+from simroad.camera import _ground_blur, _raster, _sheen
 from simroad.camera._painter import NEAR_M, MeshPainter
 from simroad.camera.codes import SKY
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
+from simroad.camera.profile import CameraProfile
 from simroad.camera.sky import draw_sky, sky_image
 from simroad.camera.vehicles import VehicleBox, vehicles_mesh
 from simroad.camera.window import Window
@@ -88,13 +89,6 @@ class Frame:
             self.face_id = np.full(self.material.shape, -1, dtype=np.int32)
 
 
-def _sky_image(camera: PinholeCamera, rng: np.random.Generator) -> np.ndarray:
-    """The world's sky (float32 (H, W, 3) sRGB 0-255), drawn from ``rng``: overcast or
-    hazy with a plausible sun (:func:`simroad.camera.sky.draw_sky`), seen at heading 0
-    so that it does not depend on the camera's previous pose."""
-    return sky_image(camera, draw_sky(rng), heading=0.0)
-
-
 class CameraRenderer:
     """Renders frames of a :class:`WorldRaster` through a :class:`PinholeCamera`.
 
@@ -103,14 +97,33 @@ class CameraRenderer:
     camera : PinholeCamera
     world : WorldRaster
     rng : numpy.random.Generator
-        Draws the sky colours.
+        Draws the sky (:func:`simroad.camera.sky.draw_sky`).
+    profile : CameraProfile, optional
+        The daylight it is drawn from (simroad's default when None).
+    sky_view : (float, float)
+        Range of the ground's sky-view factor (:data:`simroad.camera.sky.SKY_VIEW`).
+
+    Attributes
+    ----------
+    sky : SkySpec
+        The world's sky and daylight, seen at heading 0 so that the sky in the frame
+        does not depend on the camera's previous pose.
     """
 
-    def __init__(self, camera: PinholeCamera, world: WorldRaster, rng: np.random.Generator) -> None:
+    def __init__(
+        self,
+        camera: PinholeCamera,
+        world: WorldRaster,
+        rng: np.random.Generator,
+        *,
+        profile: CameraProfile | None = None,
+        sky_view: tuple[float, float] = (1.0, 1.0),
+    ) -> None:
         self.camera = camera
         self.world = world
         c = camera.config
-        sky = _sky_image(camera, rng)
+        self.sky = draw_sky(rng, daylight=profile, sky_view=sky_view)
+        sky = sky_image(camera, self.sky, heading=0.0)
         depth = camera.depth
         # Aerial perspective over the last 40 % of the range hides the cut-off.
         fade_start = 0.6 * c.max_range_m
@@ -152,6 +165,7 @@ class CameraRenderer:
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
         self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
         self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
+        self._sheen = _sheen.sheen_map(camera, self.sky, self._r0)  # the sky the road reflects
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -228,6 +242,7 @@ class CameraRenderer:
             win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE
         )
         self._colour_bands(win, M, pose, motion_m, rgb)
+        _sheen.add_sheen(rgb, road[r0:], self._sheen, self.world.palette.sheen)
         fr = self._fade_rows
         if fr.stop > fr.start:
             _raster.fade(rgb[fr], self._fade_alpha, self._haze)

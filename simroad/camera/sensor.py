@@ -41,8 +41,16 @@ from simroad.camera._sensor_ops import (
     vignetting_map,
 )
 from simroad.camera.geometry import PinholeCamera
+from simroad.camera.profile import CameraProfile
+from simroad.core.daylight import CCT_RANGE_K, daylight_rgb, mired_mix
 from simroad.core.radiometry import DECODE_TABLE, srgb_to_linear
-from simroad.core.validation import check_bool, check_fields_in_range, check_int_in_range, normalize_rng
+from simroad.core.validation import (
+    check_bool,
+    check_fields_in_range,
+    check_in_range,
+    check_int_in_range,
+    normalize_rng,
+)
 from simroad.errors import InvalidParameterError
 
 __all__ = [
@@ -50,7 +58,12 @@ __all__ = [
     "SensorParams",
     "apply_sensor",
     "auto_exposure_update",
+    "white_balance_gains",
 ]
+
+
+#: simroad's default camera profile: the sensor's defaults are its camera values.
+_PROFILE = CameraProfile()
 
 
 @dataclass(frozen=True)
@@ -94,11 +107,19 @@ class SensorParams:
         Photon shot noise (Poisson, normal approximation: variance = signal in e-).
     read_noise_e : float
         Read noise standard deviation in electrons, in [0, 1000]; 0 turns it off.
+    wb_preset_k : float
+        The colour temperature (K) the camera's white balance starts from, its
+        daylight preset, in [4000, 10000].
+    awb_strength : float
+        Share of the way, in mired, the auto white balance moves from the preset to
+        the scene's light, in [0, 1]: 1 is a perfect grey-world correction, 0 a fixed
+        preset. Cameras correct partly, so a scene lit by colder light than the preset
+        (an overcast or blue sky) comes out cool and warmer light warm.
     white_balance_error : float
         Standard deviation of the auto white balance's error, in [0, 0.5]: per
-        episode the red and blue gains relative to green are off by a factor
+        episode the red and blue gains relative to green are off by a further factor
         ``exp(N(0, error))`` each (AWB estimates from real scenes err by a few percent
-        to ~10 %: a frame is slightly warm or cool); 0 is a perfect white balance.
+        to ~10 %); 0 leaves only the preset's and the partial correction's cast.
     vignetting : bool
         cos^n fall-off of the field angle.
     vignetting_exponent : float
@@ -113,18 +134,20 @@ class SensorParams:
 
     exposure_time_s: float = 0.005
     auto_exposure: bool = True
-    ae_target_mean: float = 0.14
+    ae_target_mean: float = 0.25
     ae_rate: float = 0.25
-    ae_roi_top: float = 0.5
+    ae_roi_top: float = 0.0
     ev_min: float = -4.0
     ev_max: float = 4.0
-    tone_shoulder: float = 1.0
-    gamma: float = 1.0
-    full_well_e: float = 10_000.0
+    tone_shoulder: float = _PROFILE.tone_shoulder
+    gamma: float = _PROFILE.tone_gamma
+    full_well_e: float = _PROFILE.full_well_e
     adc_bits: int = 12
     shot_noise: bool = True
     read_noise_e: float = 3.0
-    white_balance_error: float = 0.06
+    wb_preset_k: float = _PROFILE.wb_preset_k
+    awb_strength: float = _PROFILE.awb_strength
+    white_balance_error: float = 0.04
     vignetting: bool = True
     vignetting_exponent: float = 2.0
     motion_blur: bool = True
@@ -142,6 +165,8 @@ class SensorParams:
             "gamma": (0.2, 5.0, "", True),
             "full_well_e": (100.0, 1e6, "e-", True),
             "read_noise_e": (0.0, 1000.0, "e-", True),
+            "wb_preset_k": (CCT_RANGE_K[0], 10000.0, "K", True),
+            "awb_strength": (0.0, 1.0, "", True),
             "white_balance_error": (0.0, 0.5, "", True),
             "vignetting_exponent": (0.0, 8.0, "", True),
         }
@@ -162,6 +187,7 @@ class SensorParams:
             gamma=1.0,
             shot_noise=False,
             read_noise_e=0.0,
+            awb_strength=1.0,
             white_balance_error=0.0,
             vignetting=False,
             motion_blur=False,
@@ -176,6 +202,7 @@ class SensorParams:
             not any(effects)
             and self.read_noise_e == 0.0
             and self.white_balance_error == 0.0
+            and self.awb_strength == 1.0
             and self.tone_shoulder == 0.0
             and self.gamma == 1.0
             and self.jpeg_quality is None
@@ -183,6 +210,24 @@ class SensorParams:
 
 
 # ------------------------------------------------------------------ pure maths
+
+
+def white_balance_gains(params: SensorParams, illuminant_k: float) -> np.ndarray | None:
+    """The cast a camera's white balance leaves on a scene lit by daylight of
+    ``illuminant_k`` K: per-channel gains (R, G, B), green 1, float32; None when there
+    is none (a perfect correction, or light of the preset's colour).
+
+    Frames are rendered as a camera perfectly balanced for the scene's light would
+    see them; a camera that balances for ``T_c`` instead (``awb_strength`` of the way
+    from ``wb_preset_k`` to ``illuminant_k`` in mired) multiplies them by
+    ``daylight_rgb(illuminant_k) / daylight_rgb(T_c)``.
+    """
+    illuminant_k = check_in_range("illuminant_k", illuminant_k, *CCT_RANGE_K, unit="K")
+    if params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k:
+        return None
+    balanced_for = mired_mix(params.wb_preset_k, illuminant_k, params.awb_strength)
+    gains = daylight_rgb(illuminant_k) / daylight_rgb(balanced_for)
+    return (gains / gains[1]).astype(np.float32)
 
 
 def auto_exposure_update(ev: float, measured_mean: float, params: SensorParams) -> float:
@@ -371,18 +416,21 @@ class Sensor:
         self._noise: NoiseTile | None = None
         self._work: np.ndarray | None = None
 
-    def reset(self, rng: np.random.Generator | int) -> None:
-        """Start an episode: exposure back to nominal, noise field drawn from ``rng``."""
+    def reset(self, rng: np.random.Generator | int, *, illuminant_k: float = 6504.0) -> None:
+        """Start an episode: exposure back to nominal, noise field drawn from ``rng``,
+        the white balance for a scene lit by daylight of ``illuminant_k`` kelvin (the
+        world's :attr:`~simroad.camera.sky.SkySpec.illuminant_k`)."""
         self._rng = rng = normalize_rng(rng)
         self.ev = 0.0
         self._settled = not self.params.auto_exposure
         p, c = self.params, self.camera.config
         self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
         self._work = np.empty((c.height, c.width, 3), np.float32) if p.motion_blur else None
-        self.white_balance: np.ndarray | None = None
+        self.white_balance = white_balance_gains(p, illuminant_k)
         if p.white_balance_error > 0.0:  # drawn after the noise field: that stream is unchanged
             r, b = np.exp(rng.normal(0.0, p.white_balance_error, 2))
-            self.white_balance = np.array([r, 1.0, b], dtype=np.float32)
+            error = np.array([r, 1.0, b], dtype=np.float32)
+            self.white_balance = error if self.white_balance is None else self.white_balance * error
 
     def travel_m(self, speed_m_s: float) -> float:
         """Distance (m) the camera covers during the next frame's exposure at

@@ -35,6 +35,8 @@ import numpy as np
 
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.lighting import NOMINAL_EXPOSURE
+from simroad.camera.profile import CameraProfile
+from simroad.core.daylight import CCT_RANGE_K
 from simroad.core.radiometry import linear_to_srgb
 from simroad.core.validation import check_choice, check_in_range, normalize_rng
 from simroad.errors import InvalidParameterError
@@ -42,11 +44,13 @@ from simroad.errors import InvalidParameterError
 __all__ = [
     "CIE_SKY_TYPES",
     "CONDITIONS",
+    "SKY_VIEW",
     "SkySpec",
     "Sun",
     "camera_directions",
     "cie_relative_luminance",
     "draw_sky",
+    "illuminant_cct",
     "sky_image",
     "sky_radiance",
 ]
@@ -71,6 +75,8 @@ CIE_SKY_TYPES: dict[int, tuple[float, float, float, float, float]] = {
 }
 #: Weather conditions of the sky and the CIE types each draws from.
 CONDITIONS: dict[str, tuple[int, ...]] = {"overcast": (1, 3), "hazy": (7, 8, 9), "clear": (12, 13)}
+#: The ground's sky-view factor range per ground profile (see :func:`draw_sky`).
+SKY_VIEW: dict[str, tuple[float, float]] = {"rural": (0.9, 1.0), "urban": (0.5, 0.8)}
 _DEFAULT_TYPE = {"overcast": 1, "hazy": 8, "clear": 12}
 # Linear RGB per unit luminance (Y = 1): clear-sky zenith blue (sRGB ~ (95, 145, 215))
 # and the overcast white (slightly cool, ~7000 K).
@@ -95,17 +101,20 @@ class Sun:
 
 @dataclass(frozen=True)
 class SkySpec:
-    """One world's sky: the weather ``condition``, the ``sun`` and a ``brightness``
-    factor (cloud thickness varies: relative sky radiance, about 0.8-1.2)."""
+    """One world's sky: the weather ``condition``, the ``sun``, a ``brightness``
+    factor (cloud thickness varies: relative sky radiance) and the correlated colour
+    temperature ``illuminant_k`` of the light it and the sun shed on the ground (K)."""
 
     condition: str
     sun: Sun
     brightness: float = 1.0
     cie_type: int | None = None
+    illuminant_k: float = 6504.0
 
     def __post_init__(self) -> None:
         check_choice("condition", self.condition, tuple(CONDITIONS))
         check_in_range("brightness", self.brightness, 0.1, 10.0)
+        check_in_range("illuminant_k", self.illuminant_k, *CCT_RANGE_K, unit="K")
         if self.cie_type is not None and self.cie_type not in CIE_SKY_TYPES:
             check_choice("cie_type", str(self.cie_type), [str(k) for k in CIE_SKY_TYPES])
 
@@ -277,14 +286,48 @@ def sky_image(
     return linear_to_srgb(lin, np.float32) * np.float32(255.0)
 
 
-def draw_sky(rng: np.random.Generator | int, *, condition: str | None = None) -> SkySpec:
-    """One world's sky: condition (overcast 70 %, hazy 30 % unless given), a CIE type
-    of it, a plausible sun (elevation 15-60 degrees, any azimuth) and a brightness
-    factor (0.85-1.15: clouds of varying thickness)."""
+def illuminant_cct(condition: str, sun_elevation_deg: float, rng: np.random.Generator) -> float:
+    """The CCT (K) of the light on the ground: an overcast sky's 6300-7500 K, a hazy
+    day's 5800-6800 K; under a clear sky the sun's light, about 4500 K just above the
+    horizon, warming less as the sun climbs, 5500-6200 K from 30 degrees (CIE 15:2004
+    daylight; Hernandez-Andres, Romero & Lee 2001, JOSA A 18:412, on measured
+    daylight CCTs)."""
+    if condition == "overcast":
+        return float(rng.uniform(6300.0, 7500.0))
+    if condition == "hazy":
+        return float(rng.uniform(5800.0, 6800.0))
+    high = min(1.0, max(0.0, (sun_elevation_deg - 5.0) / 25.0))
+    return float(4500.0 + 1200.0 * high + rng.uniform(0.0, 500.0))
+
+
+def draw_sky(
+    rng: np.random.Generator | int,
+    *,
+    condition: str | None = None,
+    daylight: CameraProfile | None = None,
+    sky_view: tuple[float, float] = (1.0, 1.0),
+) -> SkySpec:
+    """One world's sky, from ``daylight`` (a :class:`~simroad.camera.profile.CameraProfile`;
+    simroad's default when None): the condition (overcast, hazy or clear by the
+    profile's shares, unless given), a CIE type of it, the sun (any azimuth, elevation
+    uniform in the profile's range), a brightness factor (uniform in its range: cloud
+    thickness and haze) and the light's colour temperature (:func:`illuminant_cct`).
+
+    ``sky_view`` is the range of the ground's sky-view factor: the share of the sky
+    the street sees between its buildings (1 on an open road, 0.5-0.8 in a street
+    canyon of height-to-width 0.5-1, Oke 1987 ch. 8). The ground and what stands on
+    it get that share of the light, so relative to them the sky is ``1 / sky_view``
+    brighter."""
+    from_profile = daylight if daylight is not None else CameraProfile()
     rng = normalize_rng(rng)
-    cond = condition if condition is not None else ("overcast" if rng.random() < 0.7 else "hazy")
-    check_choice("condition", cond, tuple(CONDITIONS))
+    u = rng.random()
+    if condition is None:
+        o, h = from_profile.overcast_share, from_profile.hazy_share
+        cond = "overcast" if u < o else ("hazy" if u < o + h else "clear")
+    else:
+        cond = check_choice("condition", condition, tuple(CONDITIONS))
     types = CONDITIONS[cond]
     t = int(types[int(rng.integers(len(types)))])
-    sun = Sun(float(rng.uniform(-180.0, 180.0)), float(rng.uniform(15.0, 60.0)))
-    return SkySpec(cond, sun, float(rng.uniform(0.85, 1.15)), t)
+    sun = Sun(float(rng.uniform(-180.0, 180.0)), float(rng.uniform(*from_profile.sun_elevation_deg)))
+    brightness = float(rng.uniform(*from_profile.sky_brightness)) / float(rng.uniform(*sky_view))
+    return SkySpec(cond, sun, brightness, t, illuminant_cct(cond, sun.elevation_deg, rng))

@@ -202,7 +202,8 @@ def ground_textures(
         out["roadside"] = _concrete(p.roadside_albedo, size, texel_m, rng, float(rng.uniform(2.5, 4.0)))
     if p.profile == "urban":
         out["kerb"] = _kerb(p.kerb, size, texel_m, rng)
-        out["sidewalk"] = _concrete(p.sidewalk, size, texel_m, rng, float(rng.uniform(1.4, 2.2)))
+        slab = float(rng.uniform(1.4, 2.2))
+        out["sidewalk"] = _concrete(p.sidewalk, size, texel_m, rng, None if p.sidewalk_kind == "asphalt" else slab)
     elif p.shoulder == "gravel":
         out["shoulder"] = _gravel(p.shoulder_albedo, p.roadside_alt, size, texel_m, rng, 0.0)
     elif p.shoulder == "dirt":

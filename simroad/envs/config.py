@@ -10,6 +10,7 @@ from typing import Any
 
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.camera.sensor import SensorParams
 from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
@@ -82,6 +83,12 @@ class RoadCamConfig:
         (:mod:`simroad.noise.windscreen`, noise mask ``"windscreen"``): True (default)
         with the default :class:`WindscreenParams` (a rain-sensing wiper), False for a
         dry glass, or the parameters, e.g. ``WindscreenParams(wiper_period_s=1.5)``.
+    camera_profile : CameraProfile or str, optional
+        How a clear day looks (:mod:`simroad.camera.profile`): the daylight and
+        asphalt worlds are drawn from, and the camera's exposure bias, white balance,
+        response curve and full well (these replace the sensor's). A
+        :class:`CameraProfile`, a dict of its fields, or the path of a TOML profile
+        (``simroad calibrate`` writes one); None is simroad's default profile.
     """
 
     scenario: str = "racetrack"
@@ -100,6 +107,7 @@ class RoadCamConfig:
     road_surface: str = "auto"
     mu: float | None = None
     windscreen: bool | WindscreenParams = True
+    camera_profile: CameraProfile | None = None
 
     def __post_init__(self) -> None:
         check_choice("scenario", self.scenario, SCENARIO_NAMES)
@@ -124,6 +132,8 @@ class RoadCamConfig:
         if not isinstance(self.camera_effects, SensorParams):
             check_bool("camera_effects", self.camera_effects)
             object.__setattr__(self, "camera_effects", bool(self.camera_effects))
+        if self.camera_profile is not None:
+            object.__setattr__(self, "camera_profile", resolve_profile(self.camera_profile))
         if not isinstance(self.windscreen, WindscreenParams):
             check_bool("windscreen", self.windscreen)
             object.__setattr__(self, "windscreen", bool(self.windscreen))
@@ -131,9 +141,21 @@ class RoadCamConfig:
     @property
     def sensor_params(self) -> SensorParams | None:
         """The camera sensor's parameters, or None when ``camera_effects`` is off."""
-        if isinstance(self.camera_effects, SensorParams):
-            return self.camera_effects
-        return SensorParams() if self.camera_effects else None
+        if self.camera_effects is False:
+            return None
+        params = self.camera_effects if isinstance(self.camera_effects, SensorParams) else SensorParams()
+        cp = self.camera_profile
+        if cp is None:
+            return params
+        return dataclasses.replace(
+            params,
+            ae_target_mean=min(0.95, params.ae_target_mean * 2.0**cp.exposure_bias_ev),
+            wb_preset_k=cp.wb_preset_k,
+            awb_strength=cp.awb_strength,
+            gamma=cp.tone_gamma,
+            tone_shoulder=cp.tone_shoulder,
+            full_well_e=cp.full_well_e,
+        )
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> RoadCamConfig:

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
 from simroad.camera.scenery import Scenery
+from simroad.camera.sky import SKY_VIEW
 from simroad.camera.vehicles import draw_paint, paint_rgb
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.envs.config import RoadCamConfig
@@ -160,7 +161,10 @@ class RoadCamEnv(gym.Env):
         # ahead across segment ends (IDM traffic and the time-to-collision use it).
         self._hw.road.neighbour_vehicles_connected_lanes = True
         world_rng = np.random.default_rng(int(rng.integers(2**63 - 1)))
-        palette = draw_palette(world_rng, roadside=self.config.roadside, profile=self.scenario.profile)
+        cp = self.config.camera_profile
+        palette = draw_palette(
+            world_rng, roadside=self.config.roadside, profile=self.scenario.profile, camera_profile=cp
+        )
         self.world = WorldRaster(
             self._hw.road.network,
             world_rng,
@@ -168,7 +172,9 @@ class RoadCamEnv(gym.Env):
             palette=palette,
             extra_markings=getattr(self._hw, "crossing_polygons", ()),  # zebras and stop lines (town)
         )
-        self.renderer = CameraRenderer(self.camera, self.world, world_rng)
+        self.renderer = CameraRenderer(
+            self.camera, self.world, world_rng, profile=cp, sky_view=SKY_VIEW[self.scenario.profile]
+        )
         # The world's last draw: the scenery seed (only the scenery shifts with it).
         scenery_seed = int(world_rng.integers(2**63 - 1))
         if self.config.scenery > 0:
@@ -202,7 +208,9 @@ class RoadCamEnv(gym.Env):
             # The last draw of reset, made only when the sensor is on: with
             # camera_effects=False every other stream is unchanged.
             self.sensor = Sensor(self.config.sensor_params, self.camera)
-            self.sensor.reset(np.random.default_rng(int(rng.integers(2**63 - 1))))
+            self.sensor.reset(
+                np.random.default_rng(int(rng.integers(2**63 - 1))), illuminant_k=self.renderer.sky.illuminant_k
+            )
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0
         return self._observe(crashed=False)

@@ -1,0 +1,78 @@
+"""The road's sheen: the sky it reflects at grazing angles.
+
+Asphalt is not Lambertian. The binder on the tops of the aggregate is smooth, and
+seen at the grazing angles of a driver's view (1-10 degrees below the horizontal a
+few tens of metres ahead) it reflects the sky: roads brighten and take the sky's
+colour towards the horizon (the road-lighting literature's specular factor of the
+CIE r-tables, CIE 144:2001, rises from 0.3 for diffuse to 1.5 for specular
+surfaces). The model here is the Fresnel reflectance of bitumen (n = 1.5, Schlick's
+approximation) at the view's angle of incidence, times the sky radiance in the
+mirror direction, times a per-world gloss ``k`` for the share of the surface that is
+smooth binder (:attr:`simroad.camera.palette.Palette.sheen`):
+
+``L = L_diffuse + k F(theta) L_sky(mirror)``,  ``F = F0 + (1 - F0) (1 - cos theta)^5``
+
+with ``cos theta`` the sine of the view's depression angle. The map
+``F L_sky(mirror)`` depends only on the camera's mounting and the world's sky, so it is
+computed once per episode; adding it to the road's pixels is one compiled pass over
+the ground rows (in linear radiance, from and back to sRGB by table lookups).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from simroad.camera.geometry import PinholeCamera
+from simroad.camera.sky import SkySpec, camera_directions, sky_radiance
+from simroad.core.radiometry import DECODE_TABLE, GAMMA
+
+__all__ = ["ENCODE_TABLE", "FRESNEL_F0", "add_sheen", "sheen_map"]
+
+#: Normal-incidence reflectance of bitumen (refractive index about 1.5).
+FRESNEL_F0 = 0.04
+#: Linear radiance (4096 steps over [0, 1]) -> sRGB level: the sheen's encoding.
+ENCODE_TABLE = np.minimum(np.rint(255.0 * (np.arange(4096) / 4095.0) ** (1.0 / GAMMA)), 255).astype(np.uint8)
+
+
+def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
+    """``F(theta) L_sky(mirror)`` of the ground rows ``r0`` on: float32 (H - r0, W, 3),
+    0 where a pixel sees no ground (heading 0, as the renderer's sky)."""
+    d = camera_directions(camera, 0.0)[r0:]
+    ground = camera.ground_valid[r0:]
+    norm = np.linalg.norm(d, axis=-1)
+    cos_theta = np.clip(-d[..., 2] / np.maximum(norm, 1e-12), 0.0, 1.0)  # view's incidence on the flat ground
+    mirror = d.copy()
+    mirror[..., 2] = np.abs(mirror[..., 2])
+    lsky = sky_radiance(
+        mirror,
+        sun_azimuth=sky.sun.azimuth_deg,
+        sun_elevation=sky.sun.elevation_deg,
+        condition=sky.condition,
+        sky_type=sky.cie_type,
+        brightness=sky.brightness,
+    )
+    fresnel = FRESNEL_F0 + (1.0 - FRESNEL_F0) * (1.0 - cos_theta) ** 5
+    out = (fresnel[..., None] * lsky).astype(np.float32)
+    out[~ground] = 0.0
+    return np.ascontiguousarray(out)
+
+
+@njit(cache=True)
+def _add(rgb, road, add, k, decode, encode):  # pragma: no cover - compiled
+    h, w = road.shape
+    top = rgb.shape[0] - h
+    for y in range(h):
+        for x in range(w):
+            if road[y, x]:
+                for c in range(3):
+                    lin = decode[rgb[top + y, x, c]] + k * add[y, x, c]
+                    i = int(lin * 4095.0 + 0.5)
+                    rgb[top + y, x, c] = encode[min(i, 4095)]
+
+
+def add_sheen(rgb: np.ndarray, road: np.ndarray, sheen: np.ndarray, gloss: float) -> None:
+    """Add ``gloss * sheen`` (the map of :func:`sheen_map`) to the road pixels of the
+    bottom rows of ``rgb`` (uint8 (H, W, 3), in place); ``road`` is bool (H - r0, W)."""
+    if gloss > 0.0:
+        _add(rgb, road, sheen, np.float32(gloss), DECODE_TABLE, ENCODE_TABLE)
