@@ -37,6 +37,9 @@ _SHOULDER_P = {"asphalt": 0.4, "gravel": 0.3, "dirt": 0.2, "concrete": 0.1}
 #: and Cycle Route Design, Construction and Maintenance Guide, 2003).
 _SIDEWALK_P = {"asphalt": 0.45, "concrete_aged": 0.4, "concrete": 0.15}
 
+# Roadside kind weights of a rural road: mostly vegetated verges (grass, weeds,
+# hedge bottoms), which are dark in the visible; bare soil, gravel or pavement less.
+_RURAL_ROADSIDE_P = {"grass": 0.6, "dirt": 0.15, "gravel": 0.15, "pavement": 0.1}
 # Roadside kind weights of an urban street (a verge beyond the sidewalk).
 _URBAN_ROADSIDE_P = {"grass": 0.35, "dirt": 0.1, "gravel": 0.15, "pavement": 0.4}
 
@@ -159,7 +162,7 @@ def draw_palette(
         p = np.array([_URBAN_ROADSIDE_P[k] for k in ROADSIDE_KINDS])
         kind = roadside or str(rng.choice(ROADSIDE_KINDS, p=p / p.sum()))
     else:
-        kind = roadside or str(rng.choice(ROADSIDE_KINDS))
+        kind = roadside or _choice(_RURAL_ROADSIDE_P, rng)
     rs, rs_alt = _roadside_albedos(kind, rng)
     shoulder = _choice(_SHOULDER_P, rng)
     sh = _shoulder_albedo(shoulder, rng, cp.asphalt_scale)

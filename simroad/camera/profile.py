@@ -63,9 +63,9 @@ class CameraProfile:
     """How a clear day looks: the camera, the daylight, the asphalt (module docstring)."""
 
     exposure_bias_ev: float = 0.0
-    wb_preset_k: float = 5200.0
-    awb_strength: float = 0.5
-    tone_gamma: float = 1.4
+    wb_preset_k: float = 4800.0
+    awb_strength: float = 0.4
+    tone_gamma: float = 1.6
     tone_shoulder: float = 1.0
     full_well_e: float = 6000.0
     overcast_share: float = 0.5
