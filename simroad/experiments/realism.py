@@ -315,7 +315,9 @@ def format_realism_table(report: RealismReport) -> str:
     ]
     counts = ", ".join(f"{s} {sum(f[0] == s for f in report.frames)}" for s in scen)
     foot = f"{len(report.frames)} frames ({counts}); {len(report.skipped)} left out (road out of view)"
-    return "\n".join([*lines, foot, f"reference: {report.reference.source}"])
+    return "\n".join(
+        [*lines, foot, textwrap.fill(f"reference: {report.reference.source}", 110, subsequent_indent="  ")]
+    )
 
 
 def _ecdf(ax: Any, values: np.ndarray, **style: Any) -> None:
