@@ -262,8 +262,10 @@ def photo_reference(
     for rgb, road in zip(loaded.images, loaded.masks):
         largest = max(largest, int(np.count_nonzero(road)))
         stats = frame_appearance(rgb, road, min_road_pixels=min_road_pixels)
-        for s in STATISTICS if stats is not None else ():
-            values[s].append(stats[s])  # type: ignore[index]
+        if stats is None:
+            continue
+        for s in STATISTICS:
+            values[s].append(stats[s])
     n, total = len(values["road_V"]), len(loaded.images)
     if n == 0:
         raise InvalidParameterError(
