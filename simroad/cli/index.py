@@ -24,6 +24,7 @@ COMMANDS = {
     "filter-effect": "does each filter earn its place? FNR/FPR with and without it on its weather",
     "figure": "draw a documentation figure",
     "videos": "write the demo's videos: one detector episode per noise",
+    "realism": "how real do the frames look? appearance statistics against real road photographs",
 }
 
 

@@ -16,6 +16,7 @@ from simroad.cli import commands
 from simroad.cli import types as T
 from simroad.cli.env_options import add_env_options, default_of, names
 from simroad.cli.index import COMMANDS, command_parser
+from simroad.cli.realism import add_realism
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.core.names import NOISE_NAMES, TRAIN_SEEDS
 from simroad.envs.config import RoadCamConfig
@@ -429,6 +430,6 @@ def _add_pictures(sub: Any) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The ``simroad`` argument parser with every subcommand."""
     parser, sub = command_parser(T.GivenParser)
-    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures):
+    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism):
         add(sub)
     return parser

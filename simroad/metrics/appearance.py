@@ -186,12 +186,25 @@ def reference_from_values(values: Mapping[str, Iterable[float]], source: str) ->
     statistic's quantiles at :data:`QUANTILE_LEVELS` (NaNs left out)."""
     table = {}
     for s in STATISTICS:
-        v = np.asarray(list(values.get(s, ())), float)
+        v = _numbers(f"values[{s!r}]", values.get(s, ()))
         v = v[np.isfinite(v)]
         if v.size == 0:
             raise InvalidParameterError(f"values: no frame has a value of {s!r}; a reference needs at least one.")
         table[s] = np.quantile(v, QUANTILE_LEVELS)
     return AppearanceReference(table, source)
+
+
+def _numbers(name: str, values: Iterable[float]) -> np.ndarray:
+    """``values`` as a 1-D float array, refused by ``name`` when not a flat sequence of numbers."""
+    try:
+        v = np.asarray(values if isinstance(values, np.ndarray) else list(values), float)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name}: expected a sequence of numbers, got {values!r:.80}.") from None
+    if v.ndim != 1:
+        raise InvalidParameterError(
+            f"{name}: expected a flat sequence of numbers, got an array of shape {v.shape}; flatten it first."
+        )
+    return v
 
 
 def _table_cdf(x: np.ndarray, q: np.ndarray, *, left: bool) -> np.ndarray:
@@ -223,9 +236,9 @@ def ks_distance(values: Iterable[float], quantiles: Sequence[float] | np.ndarray
     -------
     float in [0, 1]: 0 is the same distribution, 1 no overlap.
     """
-    v = np.sort(np.asarray(list(values), float))
-    v = v[np.isfinite(v)]
-    q = np.asarray(quantiles, float)
+    v = _numbers("values", values)
+    v = np.sort(v[np.isfinite(v)])
+    q = _numbers("quantiles", quantiles)
     if v.size == 0:
         raise InvalidParameterError("values: expected at least one finite value, got none.")
     if q.shape != (len(QUANTILE_LEVELS),) or not np.all(np.isfinite(q)) or np.any(np.diff(q) < 0):

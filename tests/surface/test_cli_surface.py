@@ -44,6 +44,7 @@ BASE: dict[str, tuple[list[str], dict[str, str]]] = {
     "filter-effect": ([], {}),
     "figure": (["camera"], {"--out": "{ok}/figure.png"}),
     "videos": ([], {"--out": "{ok}/videos"}),
+    "realism": ([], {"--out": "{ok}/realism"}),
 }
 
 #: Values refused by the argparse types of each :mod:`simroad.cli.types` factory (or each
@@ -79,6 +80,10 @@ BAD_INPUTS: dict[str, Callable[..., list[tuple[str, str]]]] = {
         ("unknown name", "none,bogus"), ("empty", ","), ("empty item", "none,"), ("repeated", "none,none"),
     ],
     "text": lambda **_: [("empty", ""), ("blank", "  ")],
+    "seed_list": lambda max_count, **_: [
+        ("wrong type", "abc"), ("a range going down", "5-3"), ("negative", "-1"), ("empty", ","),
+        ("empty item", "1,,2"), ("repeated", "1,1-2"), ("too many", f"0-{max_count}"), ("past the largest", "0-2147483648"),
+    ],
     "output_dir": lambda **_: [("below a regular file", "{file}/sub"), ("a regular file", "{file}")],
     "output_file": lambda suffixes, **_: [
         ("below a regular file", "{file}/sub/out.png"), ("a directory", "{dir}"),
@@ -125,6 +130,8 @@ EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("train-detector", "out"): [("below a regular file", "{file}/model.npz"), ("a directory", "{dir}")],
     ("ablate", "config"): [("malformed TOML", "{bad_toml}"), ("not text", "{binary}")],
     ("evaluate-detector", "model"): [("text file", "{file}")],
+    ("realism", "reference"): [("not a quantile table", "{file}")],
+    ("realism", "photos"): [("no photo with a mask", "{dir}")],
 }
 
 #: Damaged model files (refused by name at load: a checksummed, validated format).
@@ -266,6 +273,12 @@ MODE_CASES = [
     pytest.param(["ablate", "--out", "{ok}/s", "--seed-start", "2147483647", "--seeds", "2"], ("seed_start",),
                  id="ablate seeds past the largest"),
     pytest.param(["ablate"], ("--out",), id="ablate without --out"),
+    pytest.param(["realism", "--photos", "{dir}"], ("--masks",), id="realism --photos alone"),
+    pytest.param(["realism", "--masks", "{dir}"], ("--photos",), id="realism --masks alone"),
+    pytest.param(["realism", "--photos", "{dir}", "--masks", "{dir}", "--reference", "{file}"], ("--reference",),
+                 id="realism --reference with --photos"),
+    pytest.param(["realism", "--photos", "{images}", "--masks", "{images}"], ("photos",),
+                 id="realism unreadable photos"),
     pytest.param(["evaluate-detector", "--images", "{images}", "--masks", "{images}"], ("images",),
                  id="evaluate-detector unreadable images"),
 ]  # fmt: skip

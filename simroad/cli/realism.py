@@ -1,0 +1,131 @@
+"""``simroad realism``: its options and its run (appearance statistics of rendered
+frames against real photographs, :mod:`simroad.experiments.realism`)."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from simroad.cli import types as T
+from simroad.cli.env_options import default_of, names
+from simroad.cli.index import COMMANDS
+from simroad.envs.scenarios import SCENARIO_NAMES
+from simroad.errors import InvalidParameterError
+from simroad.experiments.realism import (
+    format_realism_table,
+    photo_reference,
+    realism_report,
+    write_realism,
+)
+from simroad.metrics.appearance import MIN_ROAD_PIXELS, STATISTICS
+
+__all__ = ["add_realism", "cmd_realism"]
+
+DEFAULT_OUT = "runs/realism"
+
+
+def _seeds_text(seeds: Any) -> str:
+    """A default range of seeds as the user would type it."""
+    s = tuple(seeds)
+    return f"{s[0]}-{s[-1]}" if s == tuple(range(s[0], s[-1] + 1)) else ",".join(map(str, s))
+
+
+def add_realism(sub: Any) -> None:
+    """Add ``simroad realism`` to the subcommand group ``sub``."""
+    d = {k: default_of(realism_report, k) for k in ("scenarios", "seeds", "frames", "every")}
+    p = sub.add_parser(
+        "realism",
+        help=COMMANDS["realism"],
+        description="How real do the rendered frames look? Render clear frames of held-out worlds (the camera's "
+        "sensor on, as in every env by default), compute per frame "
+        f"{', '.join(STATISTICS)} (see simroad.metrics.appearance) and print, per statistic, p10 / median / p90 "
+        "of the real photographs beside the frames' (pooled over the scenarios) and the Kolmogorov-Smirnov "
+        "distance to the photographs (0: the same distribution, 1: no overlap), pooled and per scenario. The "
+        "reference is the shipped table of 701 CamVid photographs, or --reference, or your own --photos with "
+        "--masks. Writes OUT/realism.csv (one row per frame: scenario, seed, step, the statistics), "
+        "OUT/realism.json (the table) and OUT/realism.png (the CDFs). The exit status is 0 whatever the "
+        "distances; 2 on bad input.",
+    )
+    p.add_argument(
+        "--scenarios",
+        type=T.choice_list(SCENARIO_NAMES),
+        metavar="LIST",
+        default=tuple(d["scenarios"]),
+        help=f"comma-separated: {names(SCENARIO_NAMES)} (default: all)",
+    )
+    p.add_argument(
+        "--seeds",
+        type=T.seed_list(),
+        metavar="SEEDS",
+        default=tuple(d["seeds"]),
+        help=f"world seeds: a range FIRST-LAST (both included) or comma-separated seeds and ranges, e.g. "
+        f"5000,5003-5005 (default: {_seeds_text(d['seeds'])}, worlds no tuning has used; note: a list of seeds, "
+        "not a count as in evaluate-detector)",
+    )
+    p.add_argument(
+        "--frames",
+        type=T.int_in(1, 1000),
+        default=d["frames"],
+        help=f"frames per scenario and seed (default: {d['frames']})",
+    )
+    p.add_argument(
+        "--every",
+        type=T.int_in(1, 1000),
+        default=d["every"],
+        help=f"policy steps between frames; the first is this many steps in (default: {d['every']})",
+    )
+    p.add_argument(
+        "--out",
+        type=T.output_dir(),
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"output directory (default: {DEFAULT_OUT})",
+    )
+    g = p.add_argument_group("reference (default: the shipped CamVid table)")
+    g.add_argument(
+        "--reference",
+        type=T.input_file(),
+        metavar="CSV",
+        help="a quantile table CSV: '#' comment lines, the header statistic,q00,q05,...,q100 and one row per "
+        "statistic (the layout of simroad/data/road_photos_appearance.csv)",
+    )
+    g.add_argument(
+        "--photos",
+        type=T.input_dir(),
+        metavar="DIR",
+        help="your own road photographs (PNG, JPEG, ...); the reference is their statistics' quantiles",
+    )
+    g.add_argument(
+        "--masks",
+        type=T.input_dir(),
+        metavar="DIR",
+        help=f"with --photos: their road masks, same file names, road white (> 127) on black; photos with fewer "
+        f"than {MIN_ROAD_PIXELS} road pixels are left out",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_realism)
+
+
+def cmd_realism(args: argparse.Namespace) -> int:
+    """``simroad realism``: the report, its table on stdout and its files in ``--out``."""
+    if (args.photos is None) != (args.masks is None):
+        raise InvalidParameterError(
+            "--photos/--masks: give both folders (the photographs and their road masks), or neither."
+        )
+    if args.photos is not None and args.reference is not None:
+        raise InvalidParameterError(
+            "--reference: a reference comes from a table file or from --photos/--masks, not both; drop one."
+        )
+    reference = photo_reference(args.photos, args.masks) if args.photos is not None else args.reference
+    report = realism_report(
+        scenarios=args.scenarios,
+        seeds=args.seeds,
+        frames=args.frames,
+        every=args.every,
+        reference=reference,
+        progress=not args.quiet,
+    )
+    print(format_realism_table(report))
+    paths = write_realism(report, args.out)
+    print("wrote " + ", ".join(str(p) for p in paths.values()))
+    return 0
