@@ -7,6 +7,7 @@ import argparse
 from typing import Any
 
 from simroad.cli import types as T
+from simroad.cli.commands import seed_range
 from simroad.cli.env_options import default_of, names
 from simroad.cli.index import COMMANDS
 from simroad.envs.scenarios import SCENARIO_NAMES
@@ -22,12 +23,6 @@ from simroad.metrics.appearance import MIN_ROAD_PIXELS, STATISTICS
 __all__ = ["add_realism", "cmd_realism"]
 
 DEFAULT_OUT = "runs/realism"
-
-
-def _seeds_text(seeds: Any) -> str:
-    """A default range of seeds as the user would type it."""
-    s = tuple(seeds)
-    return f"{s[0]}-{s[-1]}" if s == tuple(range(s[0], s[-1] + 1)) else ",".join(map(str, s))
 
 
 def add_realism(sub: Any) -> None:
@@ -53,15 +48,14 @@ def add_realism(sub: Any) -> None:
         default=tuple(d["scenarios"]),
         help=f"comma-separated: {names(SCENARIO_NAMES)} (default: all)",
     )
+    seeds = tuple(d["seeds"])
     p.add_argument(
         "--seeds",
-        type=T.seed_list(),
-        metavar="SEEDS",
-        default=tuple(d["seeds"]),
-        help=f"world seeds: a range FIRST-LAST (both included) or comma-separated seeds and ranges, e.g. "
-        f"5000,5003-5005 (default: {_seeds_text(d['seeds'])}, worlds no tuning has used; note: a list of seeds, "
-        "not a count as in evaluate-detector)",
+        type=T.int_in(1, 100_000),
+        default=len(seeds),
+        help=f"number of worlds (default: {len(seeds)}, the worlds {seeds[0]}-{seeds[-1]}, which no tuning has used)",
     )
+    p.add_argument("--seed-start", type=T.seed(), default=seeds[0], help=f"first world seed (default: {seeds[0]})")
     p.add_argument(
         "--frames",
         type=T.int_in(1, 1000),
@@ -119,7 +113,7 @@ def cmd_realism(args: argparse.Namespace) -> int:
     reference = photo_reference(args.photos, args.masks) if args.photos is not None else args.reference
     report = realism_report(
         scenarios=args.scenarios,
-        seeds=args.seeds,
+        seeds=seed_range(args.seed_start, args.seeds),
         frames=args.frames,
         every=args.every,
         reference=reference,

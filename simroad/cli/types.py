@@ -42,7 +42,6 @@ __all__ = [
     "output_dir",
     "output_file",
     "seed",
-    "seed_list",
     "text",
 ]
 
@@ -93,40 +92,6 @@ def int_in(low: int, high: int) -> Callable[[str], int]:
 def seed() -> Callable[[str], int]:
     """A seed: an integer in ``[0, 2**31 - 1]`` (gymnasium refuses negative seeds)."""
     return int_in(0, MAX_SEED)
-
-
-def seed_list(max_count: int = 100_000) -> Callable[[str], tuple[int, ...]]:
-    """Seeds as a range ``FIRST-LAST`` (both included) or comma-separated seeds and
-    ranges, e.g. ``5000-5012`` or ``5000,5003,5010-5012``; each seed once, at most
-    ``max_count`` of them."""
-    what = "seeds such as 5000-5012 (a range, both ends included) or 5000,5003,5010-5012"
-
-    def convert(value: str) -> tuple[int, ...]:
-        try:
-            items = _split(value, "5000-5012", what)
-        except SimroadError as exc:
-            raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
-        out: list[int] = []
-        for item in items:
-            first, dash, last = item.partition("-")
-            try:
-                low, high = int(first), int(last if dash else first)
-            except ValueError:
-                raise argparse.ArgumentTypeError(f"{item!r} is not a seed or a range; expected {what}.") from None
-            if not 0 <= low <= high <= MAX_SEED:
-                raise argparse.ArgumentTypeError(
-                    f"{item!r}: expected seeds in [0, {MAX_SEED}], a range going up (FIRST <= LAST); expected {what}."
-                )
-            if len(out) + high - low + 1 > max_count:
-                raise argparse.ArgumentTypeError(f"{value!r} holds more than {max_count} seeds; give fewer.")
-            out.extend(range(low, high + 1))
-        try:
-            _refuse_repeats(value, out)
-        except SimroadError as exc:
-            raise argparse.ArgumentTypeError(_strip_name(str(exc))) from None
-        return tuple(out)
-
-    return _typed(convert, "seeds")
 
 
 def _float(value: str, what: str) -> float:

@@ -80,10 +80,6 @@ BAD_INPUTS: dict[str, Callable[..., list[tuple[str, str]]]] = {
         ("unknown name", "none,bogus"), ("empty", ","), ("empty item", "none,"), ("repeated", "none,none"),
     ],
     "text": lambda **_: [("empty", ""), ("blank", "  ")],
-    "seed_list": lambda max_count, **_: [
-        ("wrong type", "abc"), ("a range going down", "5-3"), ("negative", "-1"), ("empty", ","),
-        ("empty item", "1,,2"), ("repeated", "1,1-2"), ("too many", f"0-{max_count}"), ("past the largest", "0-2147483648"),
-    ],
     "output_dir": lambda **_: [("below a regular file", "{file}/sub"), ("a regular file", "{file}")],
     "output_file": lambda suffixes, **_: [
         ("below a regular file", "{file}/sub/out.png"), ("a directory", "{dir}"),
