@@ -132,7 +132,7 @@ def building(
     kind = ("plaster", "brick", "concrete")[int(rng.choice(3, p=[0.5, 0.3, 0.2]))]
     wall_a = draw_albedo(kind, rng)
     roof = draw_albedo("concrete", rng) * np.float32(0.6)
-    glass = draw_albedo("glass", rng)
+    glass = draw_albedo("glass_facade", rng)
     height = floors * _FLOOR_M + rng.uniform(0.3, 1.2)
     pitch = rng.uniform(3.2, 4.2)
     sid = b.prism(footprint, 0.0, height, wall_a, BUILDING, top_albedo=roof)

@@ -12,6 +12,8 @@ smooth binder (:attr:`simroad.camera.palette.Palette.sheen`):
 
 ``L = L_diffuse + k F(theta) L_sky(mirror)``,  ``F = F0 + (1 - F0) (1 - cos theta)^5``
 
+(in a street canyon only the share ``sky_view`` of the mirror directions sees sky).
+
 with ``cos theta`` the sine of the view's depression angle. The map
 ``F L_sky(mirror)`` depends only on the camera's mounting and the world's sky, so it is
 computed once per episode; adding it to the road's pixels is one compiled pass over
@@ -53,7 +55,10 @@ def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
         brightness=sky.brightness,
     )
     fresnel = FRESNEL_F0 + (1.0 - FRESNEL_F0) * (1.0 - cos_theta) ** 5
-    out = (fresnel[..., None] * lsky).astype(np.float32)
+    # Between buildings the open sky is 1 / sky_view brighter than the ground's light
+    # (in ``lsky``) but the road reflects mostly facades: a sky_view share of the mirror
+    # directions see sky, and that sky is the open sky.
+    out = (fresnel[..., None] * lsky * np.float32(sky.sky_view**2)).astype(np.float32)
     out[~ground] = 0.0
     return np.ascontiguousarray(out)
 

@@ -72,6 +72,12 @@ ALBEDO: dict[str, AlbedoRange] = {
     "plaster": AlbedoRange((0.30, 0.29, 0.27), (0.70, 0.68, 0.64), 0.05, _OKE + " white wash/plaster; " + _HEROLD),
     "galvanised_steel": AlbedoRange((0.25, 0.25, 0.26), (0.45, 0.45, 0.46), 0.02, _HEROLD + " (weathered metal)"),
     "glass": AlbedoRange((0.03, 0.035, 0.04), (0.06, 0.065, 0.07), 0.03, "diffuse part only (Fresnel ~0.04)"),
+    # A facade's windows seen from the street: at 60-80 degrees of incidence glass
+    # reflects 10-40 % (Fresnel, n = 1.52) of the sky and the street it faces, which
+    # a Lambertian renderer takes as an apparent albedo of that share of a grey scene.
+    "glass_facade": AlbedoRange(
+        (0.08, 0.09, 0.10), (0.24, 0.26, 0.28), 0.03, "Fresnel equations, n = 1.52 (Hecht, Optics, ch. 4)"
+    ),
     "tyre": AlbedoRange((0.02, 0.02, 0.02), (0.04, 0.04, 0.04), 0.03, "carbon-black rubber, " + _HEROLD),
 }
 

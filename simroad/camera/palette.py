@@ -32,6 +32,8 @@ SHOULDER_KINDS = ("asphalt", "gravel", "dirt", "concrete")
 #: How often each shoulder kind is drawn: most rural roads in service have paved or
 #: gravel shoulders (FHWA, Highway Statistics, shoulder type by functional class).
 _SHOULDER_P = {"asphalt": 0.4, "gravel": 0.3, "dirt": 0.2, "concrete": 0.1}
+#: Factor range of the soiling of the ground beside the lanes (shoulders, kerbs).
+_SOILING = (0.6, 0.9)
 #: Sidewalk materials: tarmac footways are most common in the UK and much of Europe,
 #: concrete slabs and poured concrete the rest (Department for Transport, Footway
 #: and Cycle Route Design, Construction and Maintenance Guide, 2003).
@@ -108,9 +110,14 @@ def _roadside_albedos(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, 
 
 
 def _shoulder_albedo(kind: str, rng: np.random.Generator, asphalt_scale: float) -> np.ndarray:
-    if kind == "asphalt":  # older than the lanes, untrafficked: dust and debris, no polish
-        return np.clip(draw_albedo("asphalt_aged", rng) * asphalt_scale * rng.uniform(0.7, 1.0), 0.0, 1.0)
-    return draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
+    """A shoulder's albedo, soiled: tyre- and road-wear particles, brake dust and soot
+    settle within a few metres of the traffic (Kole et al. 2017, Int. J. Environ. Res.
+    Public Health 14:1265) and darken what lies beside the lanes by 10-40 %."""
+    if kind == "asphalt":  # older than the lanes, untrafficked: no polish
+        base = draw_albedo("asphalt_aged", rng) * asphalt_scale
+    else:
+        base = draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
+    return np.clip(base * rng.uniform(*_SOILING), 0.0, 1.0)
 
 
 def _choice(weights: dict[str, float], rng: np.random.Generator) -> str:
@@ -166,12 +173,13 @@ def draw_palette(
     rs, rs_alt = _roadside_albedos(kind, rng)
     shoulder = _choice(_SHOULDER_P, rng)
     sh = _shoulder_albedo(shoulder, rng, cp.asphalt_scale)
-    kerb = draw_albedo("kerb_stone", rng)
+    kerb = draw_albedo("kerb_stone", rng) * rng.uniform(*_SOILING)
     walk = _choice(_SIDEWALK_P, rng)
     if walk == "asphalt":
-        sidewalk = np.clip(draw_albedo("asphalt_aged", rng) * cp.asphalt_scale * rng.uniform(0.75, 1.0), 0.0, 1.0)
+        sidewalk = draw_albedo("asphalt_aged", rng) * cp.asphalt_scale
     else:
         sidewalk = draw_albedo(walk, rng)
+    sidewalk = np.clip(sidewalk * rng.uniform(*_SOILING), 0.0, 1.0)
     urban = profile == "urban"
     return Palette(
         profile=profile,

@@ -6,6 +6,7 @@ camera (and the streets it drives) and another, in one validated, recordable set
 
 the camera
     ``exposure_bias_ev`` (the auto-exposure's target, in stops from simroad's),
+    ``exposure_spread_ev`` (the spread of the meter's bias from scene to scene),
     ``wb_preset_k`` and ``awb_strength`` (the white balance: a daylight preset the
     auto white balance moves a share of the way to the scene's light, in mired),
     ``tone_gamma`` and ``tone_shoulder`` (the response curve: contrast and the
@@ -41,6 +42,7 @@ __all__ = ["PROFILE_RANGES", "CameraProfile", "load_profile", "profile_from_dict
 #: Each scalar field's valid range: (low, high, unit).
 PROFILE_RANGES: dict[str, tuple[float, float, str]] = {
     "exposure_bias_ev": (-3.0, 3.0, "EV"),
+    "exposure_spread_ev": (0.0, 2.0, "EV"),
     "wb_preset_k": (CCT_RANGE_K[0], 10000.0, "K"),
     "awb_strength": (0.0, 1.0, ""),
     "tone_gamma": (0.5, 3.0, ""),
@@ -63,6 +65,7 @@ class CameraProfile:
     """How a clear day looks: the camera, the daylight, the asphalt (module docstring)."""
 
     exposure_bias_ev: float = 0.0
+    exposure_spread_ev: float = 0.4
     wb_preset_k: float = 4800.0
     awb_strength: float = 0.4
     tone_gamma: float = 1.6
@@ -71,7 +74,7 @@ class CameraProfile:
     overcast_share: float = 0.5
     hazy_share: float = 0.25
     sun_elevation_deg: tuple[float, float] = (5.0, 65.0)
-    sky_brightness: tuple[float, float] = (0.7, 1.4)
+    sky_brightness: tuple[float, float] = (0.8, 1.8)
     asphalt_scale: float = 1.0
     aged_share: float = 0.8
 

@@ -43,7 +43,7 @@ from simroad.camera._sensor_ops import (
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.profile import CameraProfile
 from simroad.core.daylight import CCT_RANGE_K, daylight_rgb, mired_mix
-from simroad.core.radiometry import DECODE_TABLE, srgb_to_linear
+from simroad.core.radiometry import DECODE_TABLE, GAMMA, srgb_to_linear
 from simroad.core.validation import (
     check_bool,
     check_fields_in_range,
@@ -58,6 +58,7 @@ __all__ = [
     "SensorParams",
     "apply_sensor",
     "auto_exposure_update",
+    "settle_exposure",
     "white_balance_gains",
 ]
 
@@ -78,17 +79,24 @@ class SensorParams:
     auto_exposure : bool
         Adapt the exposure over frames towards ``ae_target_mean``.
     ae_target_mean : float
-        Target mean of the exposed linear signal (fraction of full well), in (0, 1).
-        The default 0.14 is half a clear frame's mean linear radiance (~0.28, sky
-        included), so that with the default shoulder (slope 2 at black) the rendered
-        mid-tones keep their level and the highlights roll off.
+        Target mean of the encoded output over the metering window (0-1 of the 8-bit
+        range), in (0, 1). Camera ISPs collect their auto-exposure statistics on
+        the processed (gamma-encoded) image and drive its mean luma to a fixed level,
+        about 0.4 (Battiato et al. 2009, "Exposure correction for imaging devices",
+        in Single-Sensor Imaging, CRC; ON Semiconductor AR0231 ISP AE documentation):
+        a bright sky then counts at most as white and saturates, instead of
+        darkening the whole frame until it does not.
+    ae_scene_bias_ev : float
+        Standard deviation (EV) of the meter's per-episode bias, in [0, 2]: matrix and
+        centre-weighted meters put scenes of the same mean at exposures a third to
+        half a stop apart (what they weigh differs from scene to scene); drawn once
+        per episode, 0 meters every scene alike.
     ae_rate : float
         Fraction of the log2 exposure error corrected per frame, in (0, 1].
     ae_roi_top : float
         Top of the metering window as a fraction of the image height, in [0, 1): the
-        auto-exposure meters the rows from there to the bottom. Automotive cameras
-        meter the road, not the sky, so the road is well exposed and a bright sky
-        saturates, as in dashcam footage; 0 meters the whole frame.
+        auto-exposure meters the rows from there to the bottom; 0 (default) meters
+        the whole frame, sky included, as dash cameras do.
     ev_min, ev_max : float
         Limits of the auto-exposure in stops (EV) relative to the nominal exposure,
         ``ev_min`` in [-10, 0], ``ev_max`` in [0, 10]. The exposure time is
@@ -134,7 +142,8 @@ class SensorParams:
 
     exposure_time_s: float = 0.005
     auto_exposure: bool = True
-    ae_target_mean: float = 0.25
+    ae_target_mean: float = 0.36
+    ae_scene_bias_ev: float = _PROFILE.exposure_spread_ev
     ae_rate: float = 0.25
     ae_roi_top: float = 0.0
     ev_min: float = -4.0
@@ -158,6 +167,7 @@ class SensorParams:
             "exposure_time_s": (0.0, 0.1, "s", False),
             "ae_target_mean": (0.0, 1.0, "", False),
             "ae_rate": (0.0, 1.0, "", False),
+            "ae_scene_bias_ev": (0.0, 2.0, "EV", True),
             "ae_roi_top": (0.0, 1.0, "", True),
             "ev_min": (-10.0, 0.0, "EV", True),
             "ev_max": (0.0, 10.0, "EV", True),
@@ -230,17 +240,73 @@ def white_balance_gains(params: SensorParams, illuminant_k: float) -> np.ndarray
     return (gains / gains[1]).astype(np.float32)
 
 
-def auto_exposure_update(ev: float, measured_mean: float, params: SensorParams) -> float:
-    """Next frame's exposure (EV): move ``ae_rate`` of the log2 error towards the target.
+def metered_mean(out: np.ndarray, top: int = 0) -> float:
+    """Centre-weighted mean (0-1) of the encoded frame ``out`` from row ``top`` down.
 
-    ``ev' = clip(ev + rate * log2(target / measured), ev_min, ev_max)``, so without
-    saturation the log2 error shrinks by ``1 - rate`` per frame: a time constant of
-    ``-1 / ln(1 - rate)`` frames (3.5 frames at the default 0.25).
+    The frame is averaged over a 16 x 9 grid of cells and the cells weighted by a
+    Gaussian of the distance from the centre of the metering window (standard
+    deviation 0.35 of its width and height, 4.5 : 1 from the centre to a corner): the
+    centre-weighted average metering of dash and automotive cameras, which favours
+    what lies ahead over the frame's edges.
+    """
+    cells = cv2.resize(out[top:], _METER_GRID, interpolation=cv2.INTER_AREA).astype(np.float32).mean(axis=2)
+    w = np.where(cells >= _HIGHLIGHT_LEVEL, _METER_WEIGHTS * _HIGHLIGHT_WEIGHT, _METER_WEIGHTS)
+    return float((cells * w).sum() / w.sum()) / 255.0
+
+
+def _meter_weights(nx: int, ny: int, sigma: float = 0.35) -> np.ndarray:
+    x = (np.arange(nx) + 0.5) / nx - 0.5
+    y = (np.arange(ny) + 0.5) / ny - 0.5
+    w = np.exp(-0.5 * ((y[:, None] / sigma) ** 2 + (x[None, :] / sigma) ** 2)).astype(np.float32)
+    return w / w.sum()
+
+
+_METER_GRID = (16, 9)
+#: Cells at or above this encoded level (of 255) are highlights (sky, sun, white
+#: walls) and count this much less: the meter lets them clip rather than darken the rest.
+_HIGHLIGHT_LEVEL = 0.8 * 255.0
+_HIGHLIGHT_WEIGHT = 0.25
+_METER_WEIGHTS = _meter_weights(*_METER_GRID)
+
+
+def settle_exposure(
+    rgb: np.ndarray,
+    params: SensorParams,
+    camera: PinholeCamera,
+    white_balance: np.ndarray | None = None,
+    *,
+    target: float | None = None,
+) -> float:
+    """The exposure (EV) at which ``rgb``'s metered mean meets ``target`` (the
+    params' ``ae_target_mean`` when None): bisection
+    over ``[ev_min, ev_max]`` (the mean only grows with the exposure) on a still,
+    noiseless exposure, to 1/256 of the range (what a camera does before it streams)."""
+    quiet = dataclasses.replace(params, shot_noise=False, read_noise_e=0.0, motion_blur=False, jpeg_quality=None)
+    goal = params.ae_target_mean if target is None else float(target)
+    lo, hi = params.ev_min, params.ev_max
+    for _ in range(8):
+        mid = 0.5 * (lo + hi)
+        _, measured = apply_sensor(rgb, quiet, camera, _NO_DRAWS, ev=mid, white_balance=white_balance)
+        lo, hi = (mid, hi) if measured < goal else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def auto_exposure_update(
+    ev: float, measured_mean: float, params: SensorParams, *, target: float | None = None
+) -> float:
+    """Next frame's exposure (EV): move ``ae_rate`` of the error towards the target.
+
+    ``ev' = clip(ev + rate * GAMMA * log2(target / measured), ev_min, ev_max)``: the
+    measured mean is of the encoded output, which moves about ``1 / GAMMA`` of a stop
+    per stop of exposure, so without saturation the error shrinks by about
+    ``1 - rate`` per frame: a time constant of ``-1 / ln(1 - rate)`` frames (3.5
+    frames at the default 0.25).
     """
     if not params.auto_exposure:
         return ev
     measured = max(float(measured_mean), 1e-6)
-    step = params.ae_rate * math.log2(params.ae_target_mean / measured)
+    goal = params.ae_target_mean if target is None else float(target)
+    step = params.ae_rate * GAMMA * math.log2(goal / measured)
     return float(min(max(ev + step, params.ev_min), params.ev_max))  # np.clip's value, without its overhead
 
 
@@ -295,8 +361,8 @@ def apply_sensor(
     -------
     rgb : ndarray, uint8, (H, W, 3)
     measured_mean : float
-        Mean exposed linear signal (fraction of full well, before noise, clipped at
-        saturation), what the auto-exposure meters.
+        Mean of the encoded output (0-1) over the metering window, before JPEG: what
+        the auto-exposure meters.
     """
     rng = normalize_rng(rng)
     if params.is_identity:
@@ -313,7 +379,7 @@ def apply_sensor(
             lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
             foe, inv_cos = float(camera.horizon_row), inv_cos_bearing(w, fx, cx)
             if face_id is None:  # every pixel blurred: the whole frame is linear
-                decode(frame, DECODE_TABLE, lin)
+                decode(frame, SENSOR_DECODE, lin)
                 radial_blur_depth(lin, d, _all_pixels(h, w), False, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX)
                 frame = lin
             else:
@@ -325,7 +391,7 @@ def apply_sensor(
                 ids = np.ascontiguousarray(ids)
                 near = near_edge_maps(ids) if face_share(ids) >= NEAR_MAPS_FROM_SHARE else _NO_NEAR
                 rows = radial_blur_frame(
-                    frame, DECODE_TABLE, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
+                    frame, SENSOR_DECODE, lin, d, ids, near, inv_cos, travel, cx, foe, MOTION_BLUR_STEP_PX
                 )
                 blurred = (lin, rows)
     full = float(2**params.adc_bits - 1)
@@ -344,9 +410,9 @@ def apply_sensor(
         k = 0.0
     out = np.empty((h, w, 3), np.uint8)
     top = min(int(params.ae_roi_top * h), h - 1)  # the metering window: rows top .. h-1
-    total = expose_frame(
+    expose_frame(
         frame,
-        DECODE_TABLE,
+        SENSOR_DECODE,
         vig,
         wb,
         (gain * full, full),
@@ -354,17 +420,31 @@ def apply_sensor(
         (oy, ox, sign, k if params.shot_noise else 0.0, (k * params.read_noise_e) ** 2),
         adc_response_lut(params.adc_bits, params.tone_shoulder, params.gamma),
         out,
-        top,
+        h,  # no row metered in the kernel: the encoded output is
         blurred,
         *gain_row_buffers(w),
     )
-    measured = total / ((h - top) * w * 3 * full)  # the mean over the metering window
+    measured = metered_mean(out, top)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
 
 
+#: Linear radiance the sensor takes a rendered level of 255 for. The rendered frame
+#: holds radiance up to its range only (1.0, twice a white surface's); a channel at
+#: 255 reached it or more: the sun (10^4-10^5 times white), its bloom, a glint, a
+#: street canyon's sky. Taken as at least this, it saturates the full well at any
+#: exposure the auto-exposure takes (ev >= -4) instead of turning grey when the
+#: exposure drops: the sun clips, as on a real sensor.
+OVER_RANGE = 16.0
+#: The sensor's decoding of the rendered frame: sRGB to linear, 255 over range.
+SENSOR_DECODE = DECODE_TABLE.copy()
+SENSOR_DECODE[255] = OVER_RANGE
+SENSOR_DECODE.flags.writeable = False
+
 _NO_NOISE = np.zeros((1, 1, 3), np.float32)
+#: The settling exposures draw nothing (no noise): a generator that is never used.
+_NO_DRAWS = np.random.default_rng(0)
 #: The motion blur's plan takes near-edge maps (:func:`near_edge_maps`) from this
 #: share of face pixels in the frame on: a town's facades (~0.45) gain 40 % by
 #: them, roads with traffic and trees (0.03-0.16) lose by building them. The same
@@ -414,6 +494,8 @@ class Sensor:
         self._rng: np.random.Generator | None = None
         self._settled = False
         self._noise: NoiseTile | None = None
+        self.target = params.ae_target_mean
+        self.white_balance: np.ndarray | None = None
         self._work: np.ndarray | None = None
 
     def reset(self, rng: np.random.Generator | int, *, illuminant_k: float = 6504.0) -> None:
@@ -431,6 +513,10 @@ class Sensor:
             r, b = np.exp(rng.normal(0.0, p.white_balance_error, 2))
             error = np.array([r, 1.0, b], dtype=np.float32)
             self.white_balance = error if self.white_balance is None else self.white_balance * error
+        self.target = p.ae_target_mean
+        if p.ae_scene_bias_ev > 0.0:  # the meter's scene-dependent bias, drawn last
+            bias = float(rng.normal(0.0, p.ae_scene_bias_ev))
+            self.target = min(0.95, max(0.05, p.ae_target_mean * 2.0 ** (bias / GAMMA)))
 
     def travel_m(self, speed_m_s: float) -> float:
         """Distance (m) the camera covers during the next frame's exposure at
@@ -456,10 +542,8 @@ class Sensor:
             raise InvalidParameterError("Sensor.apply() called before reset(); call sensor.reset(rng) first.")
         if not self._settled:
             # A camera settles its exposure before it streams: the first frame is
-            # metered at the nominal exposure and exposed at the target.
-            top = int(self.params.ae_roi_top * rgb.shape[0])
-            measured = float(cv2.mean(srgb_to_linear(rgb[top:]).reshape(rgb.shape[0] - top, -1))[0])
-            self.ev = auto_exposure_update(0.0, min(measured, 1.0), dataclasses.replace(self.params, ae_rate=1.0))
+            # exposed at the target.
+            self.ev = settle_exposure(rgb, self.params, self.camera, self.white_balance, target=self.target)
             self._settled = True
         noise = (
             self._noise
@@ -479,5 +563,5 @@ class Sensor:
             work=self._work,
             face_id=face_id,
         )
-        self.ev = auto_exposure_update(self.ev, measured, self.params)
+        self.ev = auto_exposure_update(self.ev, measured, self.params, target=self.target)
         return out

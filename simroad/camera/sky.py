@@ -103,18 +103,22 @@ class Sun:
 class SkySpec:
     """One world's sky: the weather ``condition``, the ``sun``, a ``brightness``
     factor (cloud thickness varies: relative sky radiance) and the correlated colour
-    temperature ``illuminant_k`` of the light it and the sun shed on the ground (K)."""
+    temperature ``illuminant_k`` of the light it and the sun shed on the ground (K);
+    ``sky_view`` is the ground's sky-view factor (:func:`draw_sky`), already in
+    ``brightness``."""
 
     condition: str
     sun: Sun
     brightness: float = 1.0
     cie_type: int | None = None
     illuminant_k: float = 6504.0
+    sky_view: float = 1.0
 
     def __post_init__(self) -> None:
         check_choice("condition", self.condition, tuple(CONDITIONS))
         check_in_range("brightness", self.brightness, 0.1, 10.0)
         check_in_range("illuminant_k", self.illuminant_k, *CCT_RANGE_K, unit="K")
+        check_in_range("sky_view", self.sky_view, 0.05, 1.0)
         if self.cie_type is not None and self.cie_type not in CIE_SKY_TYPES:
             check_choice("cie_type", str(self.cie_type), [str(k) for k in CIE_SKY_TYPES])
 
@@ -329,5 +333,6 @@ def draw_sky(
     types = CONDITIONS[cond]
     t = int(types[int(rng.integers(len(types)))])
     sun = Sun(float(rng.uniform(-180.0, 180.0)), float(rng.uniform(*from_profile.sun_elevation_deg)))
-    brightness = float(rng.uniform(*from_profile.sky_brightness)) / float(rng.uniform(*sky_view))
-    return SkySpec(cond, sun, brightness, t, illuminant_cct(cond, sun.elevation_deg, rng))
+    view = float(rng.uniform(*sky_view))
+    brightness = float(rng.uniform(*from_profile.sky_brightness)) / view
+    return SkySpec(cond, sun, brightness, t, illuminant_cct(cond, sun.elevation_deg, rng), view)

@@ -12,6 +12,7 @@ from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.camera.sensor import SensorParams
+from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
@@ -149,7 +150,8 @@ class RoadCamConfig:
             return params
         return dataclasses.replace(
             params,
-            ae_target_mean=min(0.95, params.ae_target_mean * 2.0**cp.exposure_bias_ev),
+            ae_target_mean=min(0.95, params.ae_target_mean * 2.0 ** (cp.exposure_bias_ev / GAMMA)),
+            ae_scene_bias_ev=cp.exposure_spread_ev,
             wb_preset_k=cp.wb_preset_k,
             awb_strength=cp.awb_strength,
             gamma=cp.tone_gamma,

@@ -23,7 +23,7 @@ snow     3000·s^1.5 flakes/m³ of 1–5 mm at 0.5–2 m/s, wind 6·s m/s, flutt
          roadside and shoulders; haze (visibility 450 m at s=0.5, 160 m at s=1)
 shadow   the sun at 120° azimuth, 60 − 40·s degrees, E_sun/E_sky = s·(8, 6, 3);
          every object of the world, vehicle and the ego casts its shadow
-glare    sun 0° azimuth (ahead on highway-env's straights) at 45 − 40·s degrees,
+glare    sun 0° azimuth (ahead on highway-env's straights) at 21 − 16·s degrees,
          E_sun/E_sky 6, dry roughness 0.35, wetness 0.5·s, veil 0.5 + 2.5·s deg²
 fog      visibility 2000·(30/2000)^s m (β_ext = 3.912/visibility), airlight 0.7
 =======  ====================================================================

@@ -7,9 +7,10 @@ Physics
   colour and ``w_s`` a Cook–Torrance microfacet lobe of the sun on the flat ground
   seen along each pixel's own view ray (Beckmann distribution of rms slope m,
   Schlick's Fresnel, Smith–Schlick shadowing):
-  ``L_s = E_sun·F·D·G / (4·cos θ_v)``. In the frame's units (1 = white Lambertian
-  under the scene's illumination E_ref = E_sun·sin e + E_sky) this is
-  ``π·(E_sun/E_ref)·F·D·G/(4·cos θ_v)``. Dry asphalt is rough (m = 0.35, F0 = 0.04);
+  ``L_s = E_sun·F·D·G / (4·cos θ_v)``. In the frame's units (``NOMINAL_EXPOSURE`` =
+  a white Lambertian surface under the scene's illumination E_ref = E_sun·sin e +
+  E_sky, :mod:`simroad.camera.lighting`) this is
+  ``NOMINAL_EXPOSURE·π·(E_sun/E_ref)·F·D·G/(4·cos θ_v)``. Dry asphalt is rough (m = 0.35, F0 = 0.04);
   the ``wetness`` fraction is under a smooth water film (m = 0.06, F0 = 0.02) that
   mirrors the sun (rain's ``water_film`` adds to it when composed).
   The lobe peaks where the view ray meets the ground at the sun's elevation, so a low
@@ -29,7 +30,8 @@ Physics
 
 Severity mapping (:meth:`GlareParams.from_severity`), s in (0, 1]::
 
-    sun_elevation_deg = 45 − 40 · s          # 5° above the horizon at s = 1
+    sun_elevation_deg = 21 − 16 · s          # in view from s ≈ 0.3 (the frame's top edge is
+                                             # ~16° up), 5° above the horizon at s = 1
     sun_azimuth_deg   = 0                    # world +x: ahead on highway-env's straights
     wetness           = 0.5 · s              # water film on the road after a shower
     veil_coeff        = 0.5 + 2.5 · s        # clean lens … dirty windscreen
@@ -51,6 +53,7 @@ import cv2
 import numpy as np
 
 from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY
+from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.core.validation import check_in_range
 from simroad.noise._arrays import fast_exp, material_weights
 from simroad.noise._geometry import SUN_AZIMUTH_LIMIT, draw_sun, sun_direction_ego, view_geometry
@@ -180,7 +183,7 @@ class GlareParams(Params):
         """Documented severity mapping (see the module docstring)."""
         s = check_in_range("severity", severity, 0.0, 1.0)
         return cls(
-            sun_elevation_deg=45.0 - 40.0 * s,
+            sun_elevation_deg=21.0 - 16.0 * s,
             sun_sky_ratio=6.0 if s > 0 else 0.0,
             wetness=0.5 * s,
             veil_coeff=0.5 + 2.5 * s,
@@ -215,7 +218,8 @@ class GlareModel(NoiseModel):
         r = self.params.sun_sky_ratio
         t_sun = math.exp(-state.sun_optical_depth / math.sin(el))
         ratio = r * t_sun / (r * t_sun * math.sin(el) + 1.0)
-        return sun_direction_ego(az, el, state.camera.pose[2]), ratio, sun_colour(el)
+        # In the frame's units a white surface is NOMINAL_EXPOSURE, not 1.
+        return sun_direction_ego(az, el, state.camera.pose[2]), ratio * NOMINAL_EXPOSURE, sun_colour(el)
 
     def reflection(self, state: FrameState) -> None:
         p = self.params
@@ -246,7 +250,7 @@ class GlareModel(NoiseModel):
             return  # the sun is behind the lens plane
         visible = self._sun_unoccluded(state, geom, sun)
         amp = math.pi * p.veil_coeff * ratio * cos_axis * visible
-        bloom = p.bloom_gain * math.exp(-state.sun_optical_depth / math.sin(self.sun[1])) * visible
+        bloom = p.bloom_gain * NOMINAL_EXPOSURE * math.exp(-state.sun_optical_depth / math.sin(self.sun[1])) * visible
         veil = veiling_glare(*geom.ray_planes_half, sun, amplitude=amp, bloom_gain=bloom, bloom_deg=p.bloom_deg)
         h, w = state.shape
         veil = _upsample(veil, slice(0, veil.shape[0]), slice(0, h), w)
