@@ -121,7 +121,7 @@ def profile_from_dict(values: dict[str, Any], *, where: str = "camera_profile") 
             raise InvalidParameterError(
                 f"{where}: unknown profile key {key!r}; valid keys are {', '.join(_FIELDS)}.{_hint(key)}"
             )
-    kw = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
+    kw: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
     return CameraProfile(**kw)
 
 
