@@ -29,7 +29,8 @@ def main() -> None:
     one_core()
     import dataclasses
 
-    from simroad.camera.sensor import Sensor, SensorParams
+    from simroad.camera.sensor import Sensor
+    from simroad.camera.sensor_params import SensorParams
 
     for (w, h), target in (((320, 180), 0.7), ((1280, 720), 8.0)):
         render, frame, env = _scene(w, h)

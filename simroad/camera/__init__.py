@@ -4,7 +4,8 @@ from simroad.camera.bev import render_bev
 from simroad.camera.codes import ASPHALT, MARKING, ROADSIDE, SHOULDER, SKY, VEHICLE
 from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.render import CameraRenderer, Frame
-from simroad.camera.sensor import Sensor, SensorParams
+from simroad.camera.sensor import Sensor
+from simroad.camera.sensor_params import SensorParams
 from simroad.camera.vehicles import VehicleBox
 from simroad.camera.world import WorldRaster
 

@@ -10,7 +10,7 @@ the camera
     ``wb_preset_k`` and ``awb_strength`` (the white balance: a daylight preset the
     auto white balance moves a share of the way to the scene's light, in mired),
     ``tone_gamma`` and ``tone_shoulder`` (the response curve: contrast and the
-    highlight roll-off), ``full_well_e`` (the pixel's full well: its noise);
+    highlight roll-off), ``saturation`` (the chroma gain after the gamma), ``full_well_e`` (the pixel's full well: its noise);
 the daylight
     ``overcast_share`` and ``hazy_share`` (the rest is sunny), the sun's elevation
     range ``sun_elevation_deg`` and the sky's brightness range ``sky_brightness``
@@ -47,6 +47,7 @@ PROFILE_RANGES: dict[str, tuple[float, float, str]] = {
     "awb_strength": (0.0, 1.0, ""),
     "tone_gamma": (0.5, 3.0, ""),
     "tone_shoulder": (0.0, 20.0, ""),
+    "saturation": (0.0, 3.0, ""),
     "full_well_e": (500.0, 1e5, "e-"),
     "overcast_share": (0.0, 1.0, ""),
     "hazy_share": (0.0, 1.0, ""),
@@ -67,9 +68,10 @@ class CameraProfile:
     exposure_bias_ev: float = 0.0
     exposure_spread_ev: float = 0.4
     wb_preset_k: float = 4800.0
-    awb_strength: float = 0.4
+    awb_strength: float = 0.55
     tone_gamma: float = 1.6
     tone_shoulder: float = 1.0
+    saturation: float = 1.15
     full_well_e: float = 6000.0
     overcast_share: float = 0.5
     hazy_share: float = 0.25
@@ -122,7 +124,10 @@ def profile_from_dict(values: dict[str, Any], *, where: str = "camera_profile") 
                 f"{where}: unknown profile key {key!r}; valid keys are {', '.join(_FIELDS)}.{_hint(key)}"
             )
     kw: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
-    return CameraProfile(**kw)
+    try:
+        return CameraProfile(**kw)
+    except InvalidParameterError as exc:  # name where the bad value came from
+        raise InvalidParameterError(f"{where}: {exc}") from None
 
 
 def load_profile(path: str | os.PathLike) -> CameraProfile:

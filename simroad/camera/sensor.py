@@ -22,8 +22,6 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -40,233 +38,20 @@ from simroad.camera._sensor_ops import (
     ones_map,
     vignetting_map,
 )
-from simroad.camera.geometry import PinholeCamera
-from simroad.camera.profile import CameraProfile
-from simroad.core.daylight import CCT_RANGE_K, daylight_rgb, mired_mix
-from simroad.core.radiometry import DECODE_TABLE, GAMMA, srgb_to_linear
-from simroad.core.validation import (
-    check_bool,
-    check_fields_in_range,
-    check_in_range,
-    check_int_in_range,
-    normalize_rng,
+from simroad.camera.exposure import (
+    SENSOR_DECODE,
+    auto_exposure_update,
+    metered_mean,
+    saturate,
+    white_balance_gains,
 )
+from simroad.camera.geometry import PinholeCamera
+from simroad.camera.sensor_params import SensorParams
+from simroad.core.radiometry import GAMMA, srgb_to_linear
+from simroad.core.validation import normalize_rng
 from simroad.errors import InvalidParameterError
 
-__all__ = [
-    "Sensor",
-    "SensorParams",
-    "apply_sensor",
-    "auto_exposure_update",
-    "settle_exposure",
-    "white_balance_gains",
-]
-
-
-#: simroad's default camera profile: the sensor's defaults are its camera values.
-_PROFILE = CameraProfile()
-
-
-@dataclass(frozen=True)
-class SensorParams:
-    """Physical parameters of the camera sensor (docs/camera.md).
-
-    Parameters
-    ----------
-    exposure_time_s : float
-        Nominal exposure time in seconds, in (0, 0.1]. A linear radiance of 1.0
-        (white) fills the full well at this exposure and ``ev = 0``.
-    auto_exposure : bool
-        Adapt the exposure over frames towards ``ae_target_mean``.
-    ae_target_mean : float
-        Target mean of the encoded output over the metering window (0-1 of the 8-bit
-        range), in (0, 1). Camera ISPs collect their auto-exposure statistics on
-        the processed (gamma-encoded) image and drive its mean luma to a fixed level,
-        about 0.4 (Battiato et al. 2009, "Exposure correction for imaging devices",
-        in Single-Sensor Imaging, CRC; ON Semiconductor AR0231 ISP AE documentation):
-        a bright sky then counts at most as white and saturates, instead of
-        darkening the whole frame until it does not.
-    ae_scene_bias_ev : float
-        Standard deviation (EV) of the meter's per-episode bias, in [0, 2]: matrix and
-        centre-weighted meters put scenes of the same mean at exposures a third to
-        half a stop apart (what they weigh differs from scene to scene); drawn once
-        per episode, 0 meters every scene alike.
-    ae_rate : float
-        Fraction of the log2 exposure error corrected per frame, in (0, 1].
-    ae_roi_top : float
-        Top of the metering window as a fraction of the image height, in [0, 1): the
-        auto-exposure meters the rows from there to the bottom; 0 (default) meters
-        the whole frame, sky included, as dash cameras do.
-    ev_min, ev_max : float
-        Limits of the auto-exposure in stops (EV) relative to the nominal exposure,
-        ``ev_min`` in [-10, 0], ``ev_max`` in [0, 10]. The exposure time is
-        ``exposure_time_s * 2**ev``.
-    tone_shoulder : float
-        Strength ``k`` of the response curve's shoulder ``(1 + k) y / (1 + k y)``,
-        in [0, 20]; 0 is a linear response.
-    gamma : float
-        Extra exponent on the normalised signal before sRGB encoding, in [0.2, 5];
-        1.0 is plain sRGB.
-    full_well_e : float
-        Full-well capacity in electrons, in [100, 1e6].
-    adc_bits : int
-        ADC resolution in bits, in [8, 16]; full scale is the full well.
-    shot_noise : bool
-        Photon shot noise (Poisson, normal approximation: variance = signal in e-).
-    read_noise_e : float
-        Read noise standard deviation in electrons, in [0, 1000]; 0 turns it off.
-    wb_preset_k : float
-        The colour temperature (K) the camera's white balance starts from, its
-        daylight preset, in [4000, 10000].
-    awb_strength : float
-        Share of the way, in mired, the auto white balance moves from the preset to
-        the scene's light, in [0, 1]: 1 is a perfect grey-world correction, 0 a fixed
-        preset. Cameras correct partly, so a scene lit by colder light than the preset
-        (an overcast or blue sky) comes out cool and warmer light warm.
-    white_balance_error : float
-        Standard deviation of the auto white balance's error, in [0, 0.5]: per
-        episode the red and blue gains relative to green are off by a further factor
-        ``exp(N(0, error))`` each (AWB estimates from real scenes err by a few percent
-        to ~10 %); 0 leaves only the preset's and the partial correction's cast.
-    vignetting : bool
-        cos^n fall-off of the field angle.
-    vignetting_exponent : float
-        ``n``, in [0, 8]: 4 is a thin lens's natural vignetting (the cos^4 law); the
-        default 2 models a lens that partly compensates it, as automotive lenses do
-        (relative illumination ~60-80 % at the corner).
-    motion_blur : bool
-        Radial blur from forward motion during the exposure (length from the depth map).
-    jpeg_quality : int or None
-        JPEG quality in [1, 100], or None for no compression.
-    """
-
-    exposure_time_s: float = 0.005
-    auto_exposure: bool = True
-    ae_target_mean: float = 0.36
-    ae_scene_bias_ev: float = _PROFILE.exposure_spread_ev
-    ae_rate: float = 0.25
-    ae_roi_top: float = 0.0
-    ev_min: float = -4.0
-    ev_max: float = 4.0
-    tone_shoulder: float = _PROFILE.tone_shoulder
-    gamma: float = _PROFILE.tone_gamma
-    full_well_e: float = _PROFILE.full_well_e
-    adc_bits: int = 12
-    shot_noise: bool = True
-    read_noise_e: float = 3.0
-    wb_preset_k: float = _PROFILE.wb_preset_k
-    awb_strength: float = _PROFILE.awb_strength
-    white_balance_error: float = 0.04
-    vignetting: bool = True
-    vignetting_exponent: float = 2.0
-    motion_blur: bool = True
-    jpeg_quality: int | None = None
-
-    def __post_init__(self) -> None:
-        ranges = {
-            "exposure_time_s": (0.0, 0.1, "s", False),
-            "ae_target_mean": (0.0, 1.0, "", False),
-            "ae_rate": (0.0, 1.0, "", False),
-            "ae_scene_bias_ev": (0.0, 2.0, "EV", True),
-            "ae_roi_top": (0.0, 1.0, "", True),
-            "ev_min": (-10.0, 0.0, "EV", True),
-            "ev_max": (0.0, 10.0, "EV", True),
-            "tone_shoulder": (0.0, 20.0, "", True),
-            "gamma": (0.2, 5.0, "", True),
-            "full_well_e": (100.0, 1e6, "e-", True),
-            "read_noise_e": (0.0, 1000.0, "e-", True),
-            "wb_preset_k": (CCT_RANGE_K[0], 10000.0, "K", True),
-            "awb_strength": (0.0, 1.0, "", True),
-            "white_balance_error": (0.0, 0.5, "", True),
-            "vignetting_exponent": (0.0, 8.0, "", True),
-        }
-        for name, value in check_fields_in_range(self, ranges, high_exclusive=("ae_target_mean", "ae_roi_top")).items():
-            object.__setattr__(self, name, value)
-        for name in ("auto_exposure", "shot_noise", "vignetting", "motion_blur"):
-            object.__setattr__(self, name, check_bool(name, getattr(self, name)))
-        object.__setattr__(self, "adc_bits", check_int_in_range("adc_bits", self.adc_bits, 8, 16))
-        if self.jpeg_quality is not None:
-            object.__setattr__(self, "jpeg_quality", check_int_in_range("jpeg_quality", self.jpeg_quality, 1, 100))
-
-    @classmethod
-    def none(cls) -> SensorParams:
-        """Every effect off: the sensor returns the frame unchanged."""
-        return cls(
-            auto_exposure=False,
-            tone_shoulder=0.0,
-            gamma=1.0,
-            shot_noise=False,
-            read_noise_e=0.0,
-            awb_strength=1.0,
-            white_balance_error=0.0,
-            vignetting=False,
-            motion_blur=False,
-            jpeg_quality=None,
-        )
-
-    @property
-    def is_identity(self) -> bool:
-        """True when no effect is on (the frame passes unchanged)."""
-        effects = (self.auto_exposure, self.shot_noise, self.vignetting, self.motion_blur)
-        return (
-            not any(effects)
-            and self.read_noise_e == 0.0
-            and self.white_balance_error == 0.0
-            and self.awb_strength == 1.0
-            and self.tone_shoulder == 0.0
-            and self.gamma == 1.0
-            and self.jpeg_quality is None
-        )
-
-
-# ------------------------------------------------------------------ pure maths
-
-
-def white_balance_gains(params: SensorParams, illuminant_k: float) -> np.ndarray | None:
-    """The cast a camera's white balance leaves on a scene lit by daylight of
-    ``illuminant_k`` K: per-channel gains (R, G, B), green 1, float32; None when there
-    is none (a perfect correction, or light of the preset's colour).
-
-    Frames are rendered as a camera perfectly balanced for the scene's light would
-    see them; a camera that balances for ``T_c`` instead (``awb_strength`` of the way
-    from ``wb_preset_k`` to ``illuminant_k`` in mired) multiplies them by
-    ``daylight_rgb(illuminant_k) / daylight_rgb(T_c)``.
-    """
-    illuminant_k = check_in_range("illuminant_k", illuminant_k, *CCT_RANGE_K, unit="K")
-    if params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k:
-        return None
-    balanced_for = mired_mix(params.wb_preset_k, illuminant_k, params.awb_strength)
-    gains = daylight_rgb(illuminant_k) / daylight_rgb(balanced_for)
-    return (gains / gains[1]).astype(np.float32)
-
-
-def metered_mean(out: np.ndarray, top: int = 0) -> float:
-    """Centre-weighted mean (0-1) of the encoded frame ``out`` from row ``top`` down.
-
-    The frame is averaged over a 16 x 9 grid of cells and the cells weighted by a
-    Gaussian of the distance from the centre of the metering window (standard
-    deviation 0.35 of its width and height, 4.5 : 1 from the centre to a corner): the
-    centre-weighted average metering of dash and automotive cameras, which favours
-    what lies ahead over the frame's edges.
-    """
-    cells = cv2.resize(out[top:], _METER_GRID, interpolation=cv2.INTER_AREA).astype(np.float32).mean(axis=2)
-    w = np.where(cells >= _HIGHLIGHT_LEVEL, _METER_WEIGHTS * _HIGHLIGHT_WEIGHT, _METER_WEIGHTS)
-    return float((cells * w).sum() / w.sum()) / 255.0
-
-
-def _meter_weights(nx: int, ny: int, sigma: float = 0.35) -> np.ndarray:
-    x = (np.arange(nx) + 0.5) / nx - 0.5
-    y = (np.arange(ny) + 0.5) / ny - 0.5
-    w = np.exp(-0.5 * ((y[:, None] / sigma) ** 2 + (x[None, :] / sigma) ** 2)).astype(np.float32)
-    return w / w.sum()
-
-
-_METER_GRID = (16, 9)
-#: Cells at or above this encoded level (of 255) are highlights (sky, sun, white
-#: walls) and count this much less: the meter lets them clip rather than darken the rest.
-_HIGHLIGHT_LEVEL = 0.8 * 255.0
-_HIGHLIGHT_WEIGHT = 0.25
-_METER_WEIGHTS = _meter_weights(*_METER_GRID)
+__all__ = ["Sensor", "apply_sensor", "settle_exposure"]
 
 
 def settle_exposure(
@@ -289,25 +74,6 @@ def settle_exposure(
         _, measured = apply_sensor(rgb, quiet, camera, _NO_DRAWS, ev=mid, white_balance=white_balance)
         lo, hi = (mid, hi) if measured < goal else (lo, mid)
     return 0.5 * (lo + hi)
-
-
-def auto_exposure_update(
-    ev: float, measured_mean: float, params: SensorParams, *, target: float | None = None
-) -> float:
-    """Next frame's exposure (EV): move ``ae_rate`` of the error towards the target.
-
-    ``ev' = clip(ev + rate * GAMMA * log2(target / measured), ev_min, ev_max)``: the
-    measured mean is of the encoded output, which moves about ``1 / GAMMA`` of a stop
-    per stop of exposure, so without saturation the error shrinks by about
-    ``1 - rate`` per frame: a time constant of ``-1 / ln(1 - rate)`` frames (3.5
-    frames at the default 0.25).
-    """
-    if not params.auto_exposure:
-        return ev
-    measured = max(float(measured_mean), 1e-6)
-    goal = params.ae_target_mean if target is None else float(target)
-    step = params.ae_rate * GAMMA * math.log2(goal / measured)
-    return float(min(max(ev + step, params.ev_min), params.ev_max))  # np.clip's value, without its overhead
 
 
 def apply_sensor(
@@ -425,22 +191,12 @@ def apply_sensor(
         *gain_row_buffers(w),
     )
     measured = metered_mean(out, top)
+    if params.saturation != 1.0:
+        saturate(out, params.saturation)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
 
-
-#: Linear radiance the sensor takes a rendered level of 255 for. The rendered frame
-#: holds radiance up to its range only (1.0, twice a white surface's); a channel at
-#: 255 reached it or more: the sun (10^4-10^5 times white), its bloom, a glint, a
-#: street canyon's sky. Taken as at least this, it saturates the full well at any
-#: exposure the auto-exposure takes (ev >= -4) instead of turning grey when the
-#: exposure drops: the sun clips, as on a real sensor.
-OVER_RANGE = 16.0
-#: The sensor's decoding of the rendered frame: sRGB to linear, 255 over range.
-SENSOR_DECODE = DECODE_TABLE.copy()
-SENSOR_DECODE[255] = OVER_RANGE
-SENSOR_DECODE.flags.writeable = False
 
 _NO_NOISE = np.zeros((1, 1, 3), np.float32)
 #: The settling exposures draw nothing (no noise): a generator that is never used.

@@ -78,10 +78,12 @@ CONDITIONS: dict[str, tuple[int, ...]] = {"overcast": (1, 3), "hazy": (7, 8, 9),
 #: The ground's sky-view factor range per ground profile (see :func:`draw_sky`).
 SKY_VIEW: dict[str, tuple[float, float]] = {"rural": (0.9, 1.0), "urban": (0.5, 0.8)}
 _DEFAULT_TYPE = {"overcast": 1, "hazy": 8, "clear": 12}
-# Linear RGB per unit luminance (Y = 1): clear-sky zenith blue (sRGB ~ (95, 145, 215))
-# and the overcast white (slightly cool, ~7000 K).
+# Linear RGB per unit luminance (Y = 1), relative to the light on the ground (frames
+# are rendered as a camera balanced for that light sees them; the camera's own cast
+# comes after, simroad.camera.exposure.white_balance_gains): clear-sky zenith blue
+# (sRGB ~ (95, 145, 215)) and the overcast sky, which is that light: white.
 _BLUE = np.array([0.33, 0.90, 2.40], dtype=np.float32)
-_WHITE = np.array([0.96, 1.0, 1.08], dtype=np.float32)
+_WHITE = np.array([1.0, 1.0, 1.0], dtype=np.float32)
 _BLUENESS = {"overcast": 0.0, "hazy": 0.3, "clear": 1.0}
 _TURBIDITY = {"overcast": 1.0, "hazy": 0.25, "clear": 0.10}  # whitening per extra air mass
 

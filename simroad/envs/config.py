@@ -11,7 +11,7 @@ from typing import Any
 from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.profile import CameraProfile, resolve_profile
-from simroad.camera.sensor import SensorParams
+from simroad.camera.sensor_params import SensorParams
 from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
@@ -156,6 +156,7 @@ class RoadCamConfig:
             awb_strength=cp.awb_strength,
             gamma=cp.tone_gamma,
             tone_shoulder=cp.tone_shoulder,
+            saturation=cp.saturation,
             full_well_e=cp.full_well_e,
         )
 

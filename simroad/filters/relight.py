@@ -308,7 +308,7 @@ def relight_shadows(
         RGB image from a camera with simroad's response (gamma 2.2 with a shoulder).
     shoulder : float, optional
         Strength ``k`` of the camera response's shoulder ``(1 + k) y / (1 + k y)``
-        (:class:`simroad.camera.sensor.SensorParams` ``tone_shoulder``), in [0, 20].
+        (:class:`simroad.camera.sensor_params.SensorParams` ``tone_shoulder``), in [0, 20].
     rows : float, optional
         Fraction of the rows, from the bottom, searched for shadows (the ground), in (0, 1].
     sky_rows : float, optional

@@ -6,6 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
+from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.camera.materials import ALBEDO
 from simroad.camera.palette import ROADSIDE_KINDS, SHOULDER_KINDS, draw_palette
 from simroad.camera.textures import ground_textures, periodic_noise, wear_factor
@@ -83,7 +84,7 @@ def test_textures_are_srgb_of_their_albedos(profile):
     for t in tex.values():
         assert t.dtype == np.uint8 and t.shape == (128, 128, 3)
     # Mean texel ~ NOMINAL_EXPOSURE * albedo, gamma-encoded (within texture variation).
-    lin = (tex["roadside"].astype(float) / 255.0) ** 2.2 / 1.2
+    lin = (tex["roadside"].astype(float) / 255.0) ** 2.2 / NOMINAL_EXPOSURE
     assert np.mean(lin) == pytest.approx(np.mean(p.roadside_albedo), rel=0.25)
 
 

@@ -10,8 +10,9 @@ import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera, Sensor, SensorParams
 from simroad.camera._sensor_ops import NoiseTile, motion_blur_scale, radial_motion_blur
+from simroad.camera.exposure import metered_mean
 from simroad.camera.sensor import apply_sensor
-from simroad.core.radiometry import linear_to_srgb, srgb_to_linear
+from simroad.core.radiometry import GAMMA, linear_to_srgb, srgb_to_linear
 from simroad.envs import RoadCamConfig, RoadCamEnv
 from simroad.errors import SimroadError
 
@@ -102,41 +103,69 @@ def test_vignetting_corner_is_cos_n_of_field_angle(exponent):
 
 
 def test_auto_exposure_settles_then_follows_a_step_at_its_rate():
-    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.18, ae_rate=0.3, adc_bits=16)
+    # The meter reads the encoded output; with the identity response a uniform frame
+    # of linear value x at exposure ev reads (x 2**ev)**(1/GAMMA).
+    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.4, ae_rate=0.3, adc_bits=16)
     sensor = Sensor(p, CAM)
     sensor.reset(np.random.default_rng(0))
     bright = linear_to_srgb(np.full((48, 64, 3), 0.4, np.float32))
-    out = sensor.apply(bright)  # the first frame is metered and exposed at the target
-    assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.02)
+    out = sensor.apply(bright)  # the first frame is settled at the target (bisection to 1/32 EV)
+    assert float(out.mean()) / 255.0 == pytest.approx(0.4, abs=0.006)
+    assert sensor.ev == pytest.approx(GAMMA * math.log2(0.4) - math.log2(0.4), abs=0.02)
     dark = linear_to_srgb(np.full((48, 64, 3), 0.05, np.float32))  # entering a shadow
     lin = float(srgb_to_linear(dark).mean())
+
+    def error(ev: float) -> float:  # in stops of exposure
+        return GAMMA * math.log2(0.4) - math.log2(lin) - ev
+
+    first = error(sensor.ev)
     errors = []
     for _ in range(30):
         out = sensor.apply(dark)
-        errors.append(math.log2(0.18) - math.log2(min(lin * 2.0**sensor.ev, 1.0)))
-    # One frame of latency, then the log2 error shrinks by (1 - rate) per frame:
+        errors.append(error(sensor.ev))
+    # One frame of latency, then the error shrinks by (1 - rate) per frame:
     # a time constant of -1 / ln(1 - rate) frames.
-    first = math.log2(0.18 / (lin * 2.0 ** math.log2(0.18 / 0.4)))
     assert errors[0] == pytest.approx(first * 0.7, rel=2e-3)
     assert errors[1] == pytest.approx(first * 0.7**2, rel=2e-3)
     assert abs(errors[-1]) < 0.01
-    assert float(srgb_to_linear(out).mean()) == pytest.approx(0.18, rel=0.03)
+    assert float(out.mean()) / 255.0 == pytest.approx(0.4, abs=0.01)
+
+
+def test_the_meter_weighs_the_centre_and_lets_highlights_clip():
+    h, w = 36, 64
+    flat = np.full((h, w, 3), 100, np.uint8)
+    assert metered_mean(flat) == pytest.approx(100 / 255, abs=1e-6)
+    centre, corner = flat.copy(), flat.copy()
+    centre[14:22, 28:36] = 200
+    corner[:8, :8] = 200
+    assert metered_mean(centre) > metered_mean(corner) + 0.01  # the centre counts more than a corner
+    sky = np.full((h, w, 3), 50, np.uint8)
+    sky[:16] = 250  # a sky at the top of the frame, past the highlight level
+    grey = sky.copy()
+    grey[:16] = 180  # the same sky below it: it counts fully
+    plain = float(sky.mean()) / 255
+    assert metered_mean(sky) < plain - 0.05  # the highlights count less than their share
+    assert metered_mean(grey) == pytest.approx(float(grey.mean()) / 255, abs=0.03)
 
 
 @pytest.mark.parametrize("roi_top", [0.0, 0.5])
 def test_auto_exposure_meters_its_window(roi_top):
     # Bright sky above, darker road below: metering the lower half exposes the road at
-    # the target and lets the sky saturate; metering all of it exposes the average.
-    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.18, adc_bits=16, ae_roi_top=roi_top)
+    # the target and lets the sky saturate; metering all of it holds the meter's
+    # reading of the whole frame at the target.
+    p = dataclasses.replace(OFF, auto_exposure=True, ae_target_mean=0.4, adc_bits=16, ae_roi_top=roi_top)
     sensor = Sensor(p, CAM)
     sensor.reset(np.random.default_rng(0))
     lin = np.full((48, 64, 3), 0.05, np.float32)
     lin[:24] = 0.6
-    out = srgb_to_linear(sensor.apply(linear_to_srgb(lin)))
-    metered = out[int(roi_top * 48) :].mean()
-    assert float(metered) == pytest.approx(0.18, rel=0.03)
+    out = sensor.apply(linear_to_srgb(lin))
+    top = int(roi_top * 48)
+    assert metered_mean(out, top) == pytest.approx(0.4, abs=0.01)
     if roi_top:
-        assert float(out[:24].mean()) == pytest.approx(1.0, abs=0.01)  # the sky saturates
+        assert float(out[24:].mean()) / 255 == pytest.approx(0.4, abs=0.01)  # the road at the target
+        assert float(srgb_to_linear(out[:24]).mean()) == pytest.approx(1.0, abs=0.01)  # the sky saturates
+    else:  # between the exposures that would put either half alone at the target
+        assert float(out[24:].mean()) / 255 < 0.4 < float(out[:24].mean()) / 255
 
 
 def test_white_balance_is_drawn_per_episode_and_tints_the_frame():

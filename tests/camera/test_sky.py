@@ -93,7 +93,14 @@ def test_sky_image_and_draws_are_reproducible_and_validated():
     b = sky_image(cam, draw_sky(np.random.default_rng(4)), heading=0.0)
     np.testing.assert_array_equal(a, b)
     assert a.shape == (36, 64, 3) and a.dtype == np.float32 and a.min() >= 0 and a.max() <= 255
-    assert {draw_sky(np.random.default_rng(s)).condition for s in range(40)} == {"overcast", "hazy"}
+    draws = [draw_sky(np.random.default_rng(s)) for s in range(1000)]
+    share = {c: sum(d.condition == c for d in draws) / len(draws) for c in ("overcast", "hazy", "clear")}
+    # The default profile's shares: overcast 0.5, hazy 0.25, the rest (0.25) sunny.
+    assert share == pytest.approx({"overcast": 0.5, "hazy": 0.25, "clear": 0.25}, abs=0.05)
+    assert all(5.0 <= d.sun.elevation_deg <= 65.0 and 4000.0 <= d.illuminant_k <= 7500.0 for d in draws)
+    overcast = [d.illuminant_k for d in draws if d.condition == "overcast"]
+    low_sun = [d.illuminant_k for d in draws if d.condition == "clear" and d.sun.elevation_deg < 10.0]
+    assert min(overcast) >= 6300.0 and (not low_sun or max(low_sun) < 5500.0)  # overcast cool, a low sun warm
     with pytest.raises(SimroadError, match="condition"):
         sky_radiance(np.ones((1, 3)), sun_azimuth=0, sun_elevation=30, condition="sunny")
     with pytest.raises(SimroadError, match="elevation"):

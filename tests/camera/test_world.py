@@ -148,7 +148,7 @@ def test_urban_cross_section_is_road_kerb_sidewalk_roadside(rng):
     inner = (d > 0.06) & (d < p.kerb_width_m - 0.06)
     walk = (d > p.kerb_width_m + 0.06) & (d < p.verge_width_m - 0.06)
     assert np.all(mat[d < -0.06] == ASPHALT)
-    assert inner.any() and np.all(mat[inner] == KERB)
+    assert np.all(mat[inner] == KERB) and np.any(mat[(d > -0.06) & (d < p.kerb_width_m + 0.06)] == KERB)
     assert np.all(mat[walk] == SIDEWALK)
     assert np.all(mat[(d > p.verge_width_m + 0.06) & (d < 8.0)] == ROADSIDE)
     assert not np.any(mat == SHOULDER)

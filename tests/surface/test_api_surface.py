@@ -22,7 +22,8 @@ import pytest
 import simroad  # noqa: F401  (registers the environment)
 from simroad import control, envs, experiments, filters, metrics, noise
 from simroad.camera.geometry import CameraConfig
-from simroad.camera.sensor import SensorParams
+from simroad.camera.profile import CameraProfile
+from simroad.camera.sensor_params import SensorParams
 from simroad.control import ControllerConfig
 from simroad.core import radiometry
 from simroad.envs import RoadCamConfig
@@ -32,7 +33,16 @@ from simroad.metrics import safety
 from simroad.noise import MODELS, WindscreenParams
 
 PARAMS = [*(m.params_type for m in MODELS.values()), WindscreenParams]
-CONFIGS = [RoadCamConfig, CameraConfig, SensorParams, EpisodeSpec, AblationGrid, ControllerConfig, *PARAMS]
+CONFIGS = [
+    RoadCamConfig,
+    CameraConfig,
+    SensorParams,
+    CameraProfile,
+    EpisodeSpec,
+    AblationGrid,
+    ControllerConfig,
+    *PARAMS,
+]
 
 
 def _refused(fn, name: str) -> None:
@@ -62,6 +72,12 @@ _BY_TYPE: dict[str, list[tuple[str, object]]] = {
     "tuple[float, float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12, 1e12))],
     "tuple[float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12))],
     "CameraConfig": [("wrong type", 5), ("a dict", {"width": 320})],
+    "CameraProfile | None": [
+        ("wrong type", 5),
+        ("unknown key", {"bogus": 1}),
+        ("out of range", {"tone_gamma": 9.0}),
+        ("missing file", "/no/such/camera.toml"),
+    ],
     "dict": [("wrong type", 5), ("unknown key", {"bogus": 1})],
     "dict | None": [("wrong type", 5), ("unknown key", {"bogus": 1})],
 }
