@@ -34,6 +34,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from simroad.core.daylight import CCT_RANGE_K
+from simroad.core.radiometry import CAMERA_SHOULDER, CAMERA_TONE_GAMMA
 from simroad.core.validation import check_fields_in_range, check_in_range, check_input_file
 from simroad.errors import InvalidParameterError
 
@@ -69,8 +70,8 @@ class CameraProfile:
     exposure_spread_ev: float = 0.4
     wb_preset_k: float = 4800.0
     awb_strength: float = 0.55
-    tone_gamma: float = 1.6
-    tone_shoulder: float = 1.0
+    tone_gamma: float = CAMERA_TONE_GAMMA
+    tone_shoulder: float = CAMERA_SHOULDER
     saturation: float = 1.15
     full_well_e: float = 6000.0
     overcast_share: float = 0.5

@@ -22,10 +22,27 @@ import numpy as np
 from simroad.core.validation import check_int_in_range
 from simroad.errors import InvalidParameterError
 
-__all__ = ["DECODE_TABLE", "GAMMA", "MASK_THRESHOLD", "as_uint8", "change_mask", "linear_to_srgb", "srgb_to_linear"]
+__all__ = [
+    "CAMERA_SHOULDER",
+    "CAMERA_TONE_GAMMA",
+    "DECODE_TABLE",
+    "GAMMA",
+    "MASK_THRESHOLD",
+    "as_uint8",
+    "change_mask",
+    "linear_to_srgb",
+    "srgb_to_linear",
+]
 
 GAMMA = 2.2
 MASK_THRESHOLD = 8
+
+#: The default camera's response curve (simroad.camera.profile.CameraProfile and the
+#: filters' model of the camera): the shoulder ``k`` of ``(1 + k) y / (1 + k y)`` ...
+CAMERA_SHOULDER = 1.0
+#: ... and the exponent applied after it, before the sRGB encoding: a camera's
+#: contrast (display value = ``shoulder(y) ** (CAMERA_TONE_GAMMA / GAMMA)``).
+CAMERA_TONE_GAMMA = 1.6
 
 #: sRGB level (0..255) -> linear radiance, float32 (256,): the decoding of a uint8 frame.
 DECODE_TABLE = ((np.arange(256, dtype=np.float64) / 255.0) ** GAMMA).astype(np.float32)

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-from simroad.core.radiometry import GAMMA
+from simroad.core.radiometry import CAMERA_TONE_GAMMA, GAMMA
 from simroad.core.validation import IMAGE_DTYPES, check_image, check_int_in_range
 from simroad.errors import InvalidParameterError
 from simroad.filters._kernels import LEVELS, response_forward, response_inverse, uint8_planes
@@ -192,10 +192,12 @@ def crop_box(mask: np.ndarray, margin: int) -> tuple[slice, slice]:
 
 
 # -------------------------------------------- the camera's response, undone and redone
-# The forward model is simroad.camera's sensor: the response's shoulder
-# ``z = (1 + k) y / (1 + k y)`` on the linear signal ``y`` (``response_curve``), then the
-# display encoding ``z ** (1 / GAMMA)`` of simroad.core.radiometry (``linear_to_srgb``).
-# Filters that reason in linear light (glare, shadows) invert it here.
+# The forward model is simroad.camera's sensor with the default camera's response: the
+# shoulder ``z = (1 + k) y / (1 + k y)`` on the linear signal ``y`` (``response_curve``),
+# then ``z ** (CAMERA_TONE_GAMMA / GAMMA)``: the camera's tone exponent and the display
+# encoding of simroad.core.radiometry. Filters that reason in linear light (glare)
+# invert it here.
+_ENCODE = CAMERA_TONE_GAMMA / GAMMA  # linear (after the shoulder) -> display exponent
 
 
 def pow_sparing_zeros(x: np.ndarray, power: float) -> np.ndarray:
@@ -219,9 +221,10 @@ def pow_sparing_zeros(x: np.ndarray, power: float) -> np.ndarray:
 def camera_to_linear(p: np.ndarray, shoulder: float) -> np.ndarray:
     """Display value in [0, 1] -> the camera's linear signal: encoding undone, shoulder undone (float32).
 
-    ``z = p ** GAMMA`` (``cv2.pow``), then ``z / ((1 + k) - k z)`` in float32 (compiled, in place).
+    ``z = p ** (GAMMA / CAMERA_TONE_GAMMA)`` (``cv2.pow``), then ``z / ((1 + k) - k z)`` in
+    float32 (compiled, in place).
     """
-    z = cv2.pow(np.ascontiguousarray(p, dtype=np.float32), GAMMA)
+    z = cv2.pow(np.ascontiguousarray(p, dtype=np.float32), 1.0 / _ENCODE)
     response_inverse(z, np.float32(1.0 + shoulder), np.float32(shoulder))
     return z
 
@@ -229,7 +232,7 @@ def camera_to_linear(p: np.ndarray, shoulder: float) -> np.ndarray:
 def linear_to_camera(y: np.ndarray, shoulder: float, *, gain: np.float32 | None = None) -> np.ndarray:
     """Inverse of :func:`camera_to_linear`: the response's shoulder, then the encoding (float32, ``y`` clipped to [0, 1]).
 
-    ``c = clip(y, 0, 1)``, ``z = (1 + k) c / (1 + k c)`` in float32, then ``z ** (1 / GAMMA)``
+    ``c = clip(y, 0, 1)``, ``z = (1 + k) c / (1 + k c)`` in float32, then ``z ** (CAMERA_TONE_GAMMA / GAMMA)``
     (``cv2.pow``). With ``gain`` (float32) it is ``linear_to_camera(y * gain)`` in one pass.
     """
     if y.dtype != np.float32:  # rounded to float32 after the clip, as always
@@ -237,4 +240,4 @@ def linear_to_camera(y: np.ndarray, shoulder: float, *, gain: np.float32 | None 
     z = np.empty(y.shape, np.float32)
     zeros = response_forward(np.ascontiguousarray(y), np.float32(1.0 if gain is None else gain),
                              np.float32(1.0 + shoulder), np.float32(shoulder), z)  # fmt: skip
-    return pow_sparing_zeros(z, 1.0 / GAMMA) if zeros else cv2.pow(z, 1.0 / GAMMA)
+    return pow_sparing_zeros(z, _ENCODE) if zeros else cv2.pow(z, _ENCODE)

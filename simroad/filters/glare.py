@@ -20,6 +20,7 @@ import functools
 import cv2
 import numpy as np
 
+from simroad.core.radiometry import CAMERA_SHOULDER
 from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.filters._common import (
     FilterResult,
@@ -288,15 +289,16 @@ def remove_glare(
     min_lift: float = 1.5,
     min_excess: float = 0.01,
     top: float = 0.45,
-    metering_top: float = 0.5,
-    shoulder: float = 1.0,
+    metering_top: float = 0.0,
+    shoulder: float = CAMERA_SHOULDER,
 ) -> FilterResult:
     """Remove a sun glare lobe by subtracting its additive, sun-coloured radiance; re-expose.
 
     The improved light filter (the paper's eq. 27 cannot act on grey asphalt).
 
-    1. Decode the frame to the camera's linear signal: the display encoding (gamma 2.2) undone, then the inverse
-       of the response curve's shoulder ``z = (1 + k) y / (1 + k y)``
+    1. Decode the frame to the camera's linear signal: the display encoding and the camera's tone exponent
+       undone (``p ** (GAMMA / CAMERA_TONE_GAMMA)``), then the inverse of the response curve's shoulder
+       ``z = (1 + k) y / (1 + k y)``
        (:mod:`simroad.camera.sensor`).
     2. On the rows from ``top`` down (the ground), reduced to 80 columns (a quarter of a
        320-pixel-wide frame), open each channel with a ``fine`` square (lane paint,
