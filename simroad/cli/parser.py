@@ -14,6 +14,7 @@ from typing import Any
 
 from simroad.cli import commands
 from simroad.cli import types as T
+from simroad.cli.calibrate import add_calibrate
 from simroad.cli.env_options import add_env_options, default_of, names
 from simroad.cli.index import COMMANDS, command_parser
 from simroad.cli.realism import add_realism
@@ -430,6 +431,6 @@ def _add_pictures(sub: Any) -> None:
 def build_parser() -> argparse.ArgumentParser:
     """The ``simroad`` argument parser with every subcommand."""
     parser, sub = command_parser(T.GivenParser)
-    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism):
+    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism, add_calibrate):
         add(sub)
     return parser

@@ -39,7 +39,8 @@ from simroad.camera.profile import CameraProfile, save_profile
 from simroad.core.validation import check_int_in_range, check_output_file
 from simroad.envs import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError
-from simroad.experiments._profile_space import (
+from simroad.experiments.frames import check_frame_protocol, collect_frames
+from simroad.experiments.profile_space import (
     FIT_PARAMETERS,
     check_fit,
     from_unit,
@@ -47,7 +48,6 @@ from simroad.experiments._profile_space import (
     to_unit,
     unit_coordinates,
 )
-from simroad.experiments.frames import check_frame_protocol, collect_frames
 from simroad.experiments.realism import photo_statistics
 from simroad.metrics.appearance import STATISTICS, frame_appearance
 
@@ -198,8 +198,8 @@ def calibrate_profile(
     fit: Sequence[str] = FIT_PARAMETERS,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seeds: Iterable[int] = CALIBRATION_SEEDS,
-    frames: int = 2,
-    max_evaluations: int = 150,
+    frames: int = 3,
+    max_evaluations: int = 120,
     env_options: Mapping[str, Any] | None = None,
     progress: bool = False,
 ) -> CalibrationResult:

@@ -18,7 +18,16 @@ from simroad.camera.profile import PROFILE_RANGES, CameraProfile
 from simroad.core.validation import check_choice
 from simroad.errors import InvalidParameterError
 
-__all__ = ["FIT_PARAMETERS", "SKY_BRIGHTNESS_RANGE", "check_fit", "from_unit", "simplex", "to_unit", "unit_coordinates"]
+__all__ = [
+    "FITTABLE",
+    "FIT_PARAMETERS",
+    "SKY_BRIGHTNESS_RANGE",
+    "check_fit",
+    "from_unit",
+    "simplex",
+    "to_unit",
+    "unit_coordinates",
+]
 
 #: Fields ``simroad calibrate`` fits by default (``sky_brightness`` is a range: two numbers).
 FIT_PARAMETERS = (
@@ -33,7 +42,7 @@ FIT_PARAMETERS = (
     "hazy_share",
 )
 #: Fields that may be fitted: the scalar fields of PROFILE_RANGES and the sky's brightness range.
-_FITTABLE = (*PROFILE_RANGES, "sky_brightness")
+FITTABLE = (*PROFILE_RANGES, "sky_brightness")
 #: The range the search gives each end of ``sky_brightness`` (relative to the lit ground).
 SKY_BRIGHTNESS_RANGE = (0.2, 5.0)
 
@@ -44,9 +53,9 @@ def check_fit(fit: Any) -> tuple[str, ...]:
         raise InvalidParameterError(f"fit: expected a list of profile fields, got {fit!r}.")
     names = tuple(fit)
     if not names:
-        raise InvalidParameterError(f"fit: expected at least one of {', '.join(_FITTABLE)}, got none.")
+        raise InvalidParameterError(f"fit: expected at least one of {', '.join(FITTABLE)}, got none.")
     for name in names:
-        check_choice("fit", name, _FITTABLE)
+        check_choice("fit", name, FITTABLE)
     if len(set(names)) != len(names):
         raise InvalidParameterError(f"fit: duplicate fields in {list(names)}.")
     return names
