@@ -134,7 +134,14 @@ class AblationGrid:
         check_bool("oracle", self.oracle)
         check_bool("friction", self.friction)
         if self.camera_profile is not None:
-            object.__setattr__(self, "camera_profile", resolve_profile(self.camera_profile))
+            try:
+                profile = resolve_profile(self.camera_profile)
+            except SimroadError as exc:  # name the grid's key, whatever field the profile refused
+                text = str(exc)
+                raise InvalidParameterError(
+                    text if text.startswith("camera_profile") else f"camera_profile: {text}"
+                ) from None
+            object.__setattr__(self, "camera_profile", profile)
 
     def specs(self) -> list[EpisodeSpec]:
         """Every episode of the grid, in a fixed order."""

@@ -22,6 +22,7 @@ import pytest
 import simroad  # noqa: F401  (registers the environment)
 from simroad import control, envs, experiments, filters, metrics, noise
 from simroad.camera.geometry import CameraConfig
+from simroad.camera.profile import CameraProfile
 from simroad.camera.sensor import SensorParams
 from simroad.control import ControllerConfig
 from simroad.core import radiometry
@@ -32,7 +33,16 @@ from simroad.metrics import safety
 from simroad.noise import MODELS, WindscreenParams
 
 PARAMS = [*(m.params_type for m in MODELS.values()), WindscreenParams]
-CONFIGS = [RoadCamConfig, CameraConfig, SensorParams, EpisodeSpec, AblationGrid, ControllerConfig, *PARAMS]
+CONFIGS = [
+    RoadCamConfig,
+    CameraConfig,
+    CameraProfile,
+    SensorParams,
+    EpisodeSpec,
+    AblationGrid,
+    ControllerConfig,
+    *PARAMS,
+]
 
 
 def _refused(fn, name: str) -> None:
@@ -64,6 +74,12 @@ _BY_TYPE: dict[str, list[tuple[str, object]]] = {
     "CameraConfig": [("wrong type", 5), ("a dict", {"width": 320})],
     "dict": [("wrong type", 5), ("unknown key", {"bogus": 1})],
     "dict | None": [("wrong type", 5), ("unknown key", {"bogus": 1})],
+    "CameraProfile | None": [
+        ("wrong type", 5),
+        ("unknown key", {"tone_gama": 1.3}),
+        ("out of range", {"asphalt_scale": 9.0}),
+        ("missing file", "nowhere.toml"),
+    ],
 }
 
 #: Fields whose generated value would be valid, with cases that are not.
