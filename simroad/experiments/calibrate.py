@@ -120,7 +120,7 @@ def profile_statistics(
     *,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seeds: Iterable[int] = CALIBRATION_SEEDS,
-    frames: int = 2,
+    frames: int = 3,
     every: int = _EVERY,
     env_options: Mapping[str, Any] | None = None,
 ) -> dict[str, np.ndarray]:
@@ -267,7 +267,7 @@ def calibrate_profile(
                 method="Nelder-Mead",
                 bounds=[(0.0, 1.0)] * x0.size,
                 options={
-                    "maxfev": max_evaluations - 1,
+                    "maxfev": max_evaluations,  # its first call, at x0, is the one already made
                     "initial_simplex": simplex(x0),
                     "xatol": 0.004,
                     "fatol": 0.002,

@@ -109,6 +109,33 @@ def test_ks_distances_two_samples():
     assert all(d == 1.0 for d in ks_distances(_values(5.0), ref).values())
 
 
+# --- the search, on a synthetic camera (no rendering) -------------------------------
+
+
+def _synthetic(profile: CameraProfile, **_) -> dict[str, np.ndarray]:
+    """Statistics that move smoothly with exposure, white balance and contrast."""
+    base = np.linspace(-1.0, 1.0, 24)
+    out = dict.fromkeys(STATISTICS, 0.3 + 0.05 * base)
+    out["road_V"] = 0.35 + 0.08 * profile.exposure_bias_ev + 0.05 * base
+    out["road_b"] = 0.004 * (profile.wb_preset_k - 4800.0) + 2.0 * base
+    out["road_spread"] = 0.1 * profile.tone_gamma + 0.03 * base
+    return out
+
+
+def test_the_search_recovers_a_synthetic_camera_within_its_budget(monkeypatch):
+    monkeypatch.setattr(calibrate_module, "profile_statistics", _synthetic)
+    truth = CameraProfile(exposure_bias_ev=0.8, wb_preset_k=4200.0, tone_gamma=1.3)
+    fit = ("exposure_bias_ev", "wb_preset_k", "tone_gamma")
+    result = calibrate_profile(_synthetic(truth), fit=fit, max_evaluations=150)
+    assert result.evaluations <= 150 and result.objective < 0.02 < result.start_objective
+    assert result.profile.exposure_bias_ev == pytest.approx(0.8, abs=0.05)
+    assert result.profile.wb_preset_k == pytest.approx(4200.0, abs=40.0)
+    assert result.profile.tone_gamma == pytest.approx(1.3, abs=0.05)
+    assert result.ks["road_V"] < result.start_ks["road_V"]
+    for budget in (1, 2, 7):
+        assert calibrate_profile(_synthetic(truth), fit=fit, max_evaluations=budget).evaluations == budget
+
+
 # --- refusals before rendering -----------------------------------------------------
 
 
@@ -204,16 +231,19 @@ def test_a_short_fit_writes_a_profile_that_loads(tmp_path):
 @pytest.mark.slow
 def test_recovers_a_known_profile_from_frames_it_rendered(tmp_path):
     """Photos from worlds 7000-7003, the fit on worlds 6000-6001: the objective falls by
-    half or more and the fitted profile lies nearer the truth than the default does (in
-    the search's unit box; exposure alone too). Sized for a test (16 photos, 8 frames
-    per evaluation): benchmarks/calibration_check.py runs the acceptance check at size."""
+    half or more, and the fields the statistics pin down best -- the exposure (brightness)
+    and the white balance (colour) -- move most of the way to the truth. Sized for a test
+    (16 photos, 8 frames per evaluation), where the contrast and the asphalt trade off
+    within the sampling noise; benchmarks/calibration_check.py runs the acceptance check
+    at size (200 photos), where all four fields land near the truth."""
     photos, masks = _write_photos(tmp_path, TRUTH, range(7000, 7004))
     result = calibrate_from_photos(
         photos, masks, fit=FOUR, scenarios=("racetrack", "winding"), seeds=(6000, 6001), frames=2, max_evaluations=30
     )
-    assert result.photos == 16
+    assert result.photos == 16 and result.frames == 8
     assert result.objective < 0.5 * result.start_objective
-    coords = unit_coordinates(FOUR)
-    truth, start, fitted = (to_unit(p, coords) for p in (TRUTH, CameraProfile(), result.profile))
-    assert np.linalg.norm(fitted - truth) < np.linalg.norm(start - truth)
-    assert abs(result.profile.exposure_bias_ev - 0.8) < 0.8 / 2
+    fitted, default = result.profile, CameraProfile()
+    assert abs(fitted.exposure_bias_ev - TRUTH.exposure_bias_ev) < 0.5 * abs(default.exposure_bias_ev - 0.8)
+    mired = lambda k: 1e6 / k  # noqa: E731
+    wb_miss, wb_start = (abs(mired(p.wb_preset_k) - mired(TRUTH.wb_preset_k)) for p in (fitted, default))
+    assert wb_miss < 0.5 * wb_start
