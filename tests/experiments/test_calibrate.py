@@ -235,7 +235,7 @@ def test_recovers_a_known_profile_from_frames_it_rendered(tmp_path):
     and the white balance (colour) -- move most of the way to the truth. Sized for a test
     (16 photos, 8 frames per evaluation), where the contrast and the asphalt trade off
     within the sampling noise; benchmarks/calibration_check.py runs the acceptance check
-    at size (200 photos), where all four fields land near the truth."""
+    at size (200 photos). About 3 minutes on 2 idle cores."""
     photos, masks = _write_photos(tmp_path, TRUTH, range(7000, 7004))
     result = calibrate_from_photos(
         photos, masks, fit=FOUR, scenarios=("racetrack", "winding"), seeds=(6000, 6001), frames=2, max_evaluations=30
