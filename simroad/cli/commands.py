@@ -99,7 +99,8 @@ def cmd_frames(args: argparse.Namespace) -> int:
 
 def cmd_episode(args: argparse.Namespace) -> int:
     """``simroad episode``: run one episode, print its record, check ``--require`` gates."""
-    requirements = [parse_requirement(r, valid_keys=RECORD_KEYS) for r in args.require]
+    gated = [k for k in RECORD_KEYS if k != "camera_profile"]  # a table, not a number
+    requirements = [parse_requirement(r, valid_keys=gated) for r in args.require]
     if args.driver == "oracle" and parse_filters(args.filters):
         refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")
     if args.driver == "oracle" and (args.detector != "paper" or args.detector_option):
@@ -158,6 +159,8 @@ def cmd_ablate(args: argparse.Namespace) -> int:
             args.detector_option, opts.get("detectors", ("paper",)), dict(opts.get("detector_options", {}))
         )
     run = {k: opts.pop(k) for k in RUN_KEYS if k in opts}
+    if args.camera_profile is not None:
+        opts["camera_profile"] = args.camera_profile
     if "out" not in run:
         print("simroad ablate: error: --out is required (or 'out' in the --config file)", file=sys.stderr)
         return 2
@@ -199,7 +202,12 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 def cmd_train(args: argparse.Namespace) -> int:
     """``simroad train-detector``: train a detector and write it to ``--out``."""
-    path = train_detector(args.out, seeds=seed_range(args.seed_start, args.seeds), frames_per_seed=args.frames)
+    path = train_detector(
+        args.out,
+        seeds=seed_range(args.seed_start, args.seeds),
+        frames_per_seed=args.frames,
+        camera_profile=args.camera_profile,
+    )
     print(f"wrote {path}; use it with RoadDetector.load({str(path)!r}) or --model {path}")
     return 0
 
@@ -216,7 +224,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             raise InvalidParameterError(
                 "--images/--masks: give both folders (images and their road masks), or neither."
             )
-        refuse_flags(args, ("scenario", "seeds", "seed_start", "frames"),
+        refuse_flags(args, ("scenario", "seeds", "seed_start", "frames", "camera_profile"),
                      "with --images (the frames are read from the folder, not rendered)")  # fmt: skip
     else:
         refuse_flags(args, ("weather_seed", "hfov", "pitch", "mount_height", "plot"),
@@ -245,6 +253,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         model=args.model,
         detector=args.detector,
         detector_options=parse_detector_options(args.detector_option),
+        camera_profile=args.camera_profile,
     )
     if args.json:
         print(json.dumps({"detector": rows, "filter_masks": frows}))
@@ -292,7 +301,8 @@ def cmd_filter_effect(args: argparse.Namespace) -> int:
         for variant in args.variant:
             factory = lambda f, v=variant: RoadDetector.pretrained(filters=f, filter_variant=v)  # noqa: E731
             rows = filter_effect_table(seeds=seeds, frames=args.frames, severity=severity, noises=args.noises,
-                                       detector_factory=factory, cache=cache)  # fmt: skip
+                                       detector_factory=factory, cache=cache,
+                                       camera_profile=args.camera_profile)  # fmt: skip
             out.append({"severity": severity, "variant": variant, "rows": rows})
             if not args.json:
                 print(f"severity {severity:g}, {variant} filters")
@@ -309,10 +319,12 @@ def cmd_figure(args: argparse.Namespace) -> int:
         raise InvalidParameterError(
             f"--out: the {args.what} figure is written as PNG; give a name ending in .png, got {args.out!r}."
         )
+    if args.what not in ("camera", "places"):
+        refuse_flags(args, ("camera_profile",), f"to the {args.what} figure (only camera and places render with it)")
     if args.what == "camera":
-        path = camera_figure(args.out, seed=args.seed)
+        path = camera_figure(args.out, seed=args.seed, camera_profile=args.camera_profile)
     elif args.what == "places":
-        path = places_figure(args.out, seed=args.seed)
+        path = places_figure(args.out, seed=args.seed, camera_profile=args.camera_profile)
     elif args.what == "friction":
         path = friction_figure(args.out)
     elif args.what == "windscreen":
@@ -332,6 +344,7 @@ def cmd_videos(args: argparse.Namespace) -> int:
         steps=args.steps,
         severity=args.severity,
         progress=not args.quiet,
+        camera_profile=args.camera_profile,
     )
     print("videos: " + ", ".join(str(p) for p in paths))
     return 0

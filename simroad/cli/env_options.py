@@ -14,15 +14,16 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from simroad.camera.geometry import CameraConfig
+from simroad.camera.profile import CameraProfile, load_profile
 from simroad.cli import types as T
 from simroad.core.names import NOISE_NAMES
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES
-from simroad.errors import InvalidParameterError
+from simroad.errors import InvalidParameterError, SimroadError
 from simroad.noise import WIPER_MODES, WindscreenParams
 
-__all__ = ["add_env_options", "default_of", "env_options", "names"]
+__all__ = ["add_camera_profile", "add_env_options", "default_of", "env_options", "names"]
 
 
 def default_of(owner: Callable[..., Any], name: str) -> Any:
@@ -98,6 +99,29 @@ def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) ->
     )
     _add_friction_options(g)
     _add_windscreen_options(g)
+    add_camera_profile(g)
+
+
+def _profile(text: str) -> CameraProfile:
+    """The profile in the TOML file ``text``; a refusal keeps the library's message
+    whole (it names the field or key, which argparse's flag name does not)."""
+    try:
+        return load_profile(text)
+    except SimroadError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("camera_profile: ")) from None
+
+
+def add_camera_profile(g: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--camera-profile PATH``: a TOML camera profile (``simroad calibrate`` writes one),
+    read and checked as it is parsed; the value is the :class:`CameraProfile`."""
+    g.add_argument(
+        "--camera-profile",
+        type=_profile,
+        default=None,
+        metavar="TOML",
+        help="a camera profile (exposure, white balance, tone, daylight, asphalt), e.g. from simroad calibrate "
+        "(default: simroad's own)",
+    )
 
 
 def _mu(text: str) -> float:
@@ -177,4 +201,5 @@ def env_options(args: argparse.Namespace) -> dict[str, Any]:
         "road_surface": args.road_surface,
         "mu": args.mu,
         "windscreen": windscreen,
+        **({"camera_profile": args.camera_profile} if args.camera_profile is not None else {}),
     }

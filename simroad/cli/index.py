@@ -25,6 +25,7 @@ COMMANDS = {
     "figure": "draw a documentation figure",
     "videos": "write the demo's videos: one detector episode per noise",
     "realism": "how real do the frames look? appearance statistics against real road photographs",
+    "calibrate": "fit a camera profile to your own road photographs (writes a TOML profile)",
 }
 
 

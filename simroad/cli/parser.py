@@ -14,7 +14,8 @@ from typing import Any
 
 from simroad.cli import commands
 from simroad.cli import types as T
-from simroad.cli.env_options import add_env_options, default_of, names
+from simroad.cli.calibrate import add_calibrate
+from simroad.cli.env_options import add_camera_profile, add_env_options, default_of, names
 from simroad.cli.index import COMMANDS, command_parser
 from simroad.cli.realism import add_realism
 from simroad.control.drivers import DRIVER_NAMES
@@ -236,6 +237,7 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument("--out", type=T.output_dir(), help="output directory")
     p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
+    add_camera_profile(p)
     _add_quiet(p)
     p.set_defaults(func=commands.cmd_ablate)
 
@@ -273,6 +275,7 @@ def _add_detector(sub: Any) -> None:
         default=TRAIN_FRAMES_PER_SEED,
         help=f"frames per scenario and seed (default: {TRAIN_FRAMES_PER_SEED})",
     )
+    add_camera_profile(p)
     p.set_defaults(func=commands.cmd_train)
 
     d = {
@@ -356,6 +359,7 @@ def _add_detector(sub: Any) -> None:
     g.add_argument(
         "--plot", type=T.output_file(figure_suffixes), help="write the retained-IoU plot (per weather) to this PNG"
     )
+    add_camera_profile(p)
     p.set_defaults(func=commands.cmd_evaluate)
 
     d = {k: default_of(filter_effect_table, k) for k in ("severity", "noises", "seeds", "frames")}
@@ -388,6 +392,7 @@ def _add_detector(sub: Any) -> None:
         "--frames", type=_COUNT, default=d["frames"], help=f"frames per scenario and seed (default: {d['frames']})"
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
+    add_camera_profile(p)
     p.set_defaults(func=commands.cmd_filter_effect)
 
 
@@ -403,6 +408,7 @@ def _add_pictures(sub: Any) -> None:
     p.add_argument(
         "--seed", type=T.int_in(0, T.MAX_SEED - len(SCENARIO_NAMES)), default=seed, help=f"seed (default: {seed})"
     )
+    add_camera_profile(p)
     p.set_defaults(func=commands.cmd_figure)
 
     d = {k: default_of(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
@@ -424,12 +430,13 @@ def _add_pictures(sub: Any) -> None:
         "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
     )
     _add_quiet(p)
+    add_camera_profile(p)
     p.set_defaults(func=commands.cmd_videos)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``simroad`` argument parser with every subcommand."""
     parser, sub = command_parser(T.GivenParser)
-    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism):
+    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism, add_calibrate):
         add(sub)
     return parser

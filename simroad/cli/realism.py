@@ -8,7 +8,7 @@ from typing import Any
 
 from simroad.cli import types as T
 from simroad.cli.commands import seed_range
-from simroad.cli.env_options import default_of, names
+from simroad.cli.env_options import add_camera_profile, default_of, names
 from simroad.cli.index import COMMANDS
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError
@@ -97,6 +97,7 @@ def add_realism(sub: Any) -> None:
         f"than {MIN_ROAD_PIXELS} road pixels are left out",
     )
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_camera_profile(p)
     p.set_defaults(func=cmd_realism)
 
 
@@ -117,6 +118,7 @@ def cmd_realism(args: argparse.Namespace) -> int:
         frames=args.frames,
         every=args.every,
         reference=reference,
+        env_options={} if args.camera_profile is None else {"camera_profile": args.camera_profile},
         progress=not args.quiet,
     )
     print(format_realism_table(report))

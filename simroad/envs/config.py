@@ -16,7 +16,7 @@ from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
-from simroad.errors import InvalidParameterError
+from simroad.errors import InvalidParameterError, SimroadError
 from simroad.noise import MODELS, WindscreenParams, parse_noise
 
 __all__ = ["RoadCamConfig"]
@@ -134,7 +134,7 @@ class RoadCamConfig:
             check_bool("camera_effects", self.camera_effects)
             object.__setattr__(self, "camera_effects", bool(self.camera_effects))
         if self.camera_profile is not None:
-            object.__setattr__(self, "camera_profile", resolve_profile(self.camera_profile))
+            object.__setattr__(self, "camera_profile", _profile(self.camera_profile))
         if not isinstance(self.windscreen, WindscreenParams):
             check_bool("windscreen", self.windscreen)
             object.__setattr__(self, "windscreen", bool(self.windscreen))
@@ -185,6 +185,16 @@ class RoadCamConfig:
                 )
             own_kw["camera"] = CameraConfig(**cam_kw)
         return cls(**own_kw)
+
+
+def _profile(value: Any) -> CameraProfile:
+    """``value`` resolved to a profile; a refusal names ``camera_profile`` whatever field
+    of the profile it is about."""
+    try:
+        return resolve_profile(value)
+    except SimroadError as exc:
+        text = str(exc)
+        raise InvalidParameterError(text if text.startswith("camera_profile") else f"camera_profile: {text}") from None
 
 
 def _check_friction(friction: Any, road_surface: Any, mu: Any) -> None:

@@ -32,7 +32,7 @@ from typing import Any
 from simroad.core.validation import check_choice, check_int_in_range, ensure_writable_dir
 from simroad.errors import InvalidParameterError
 from simroad.experiments._ray_backend import run_on_ray
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, profile_record, run_episode
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import OutputLock
 from simroad.experiments.pool import Interrupts, run_in_workers
@@ -73,6 +73,7 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
             filters=format_filters(spec.filters), driver=spec.driver, seed=spec.seed, steps=0,
             detector="", detector_version="", detector_spec=spec.detector if spec.driver == "detector" else "",
             friction=spec.env_options.get("friction", True),
+            camera_profile=profile_record(spec.env_options.get("camera_profile")),
         )  # fmt: skip
         record["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}"
     return record

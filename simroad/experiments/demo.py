@@ -14,6 +14,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.core.validation import check_output_dir, ensure_writable_dir
 from simroad.errors import InvalidParameterError
 from simroad.experiments.episode import EpisodeSpec, run_episode
@@ -34,6 +35,7 @@ def write_videos(
     severity: float = 0.7,
     noises: tuple[str, ...] = DEMO_NOISES,
     progress: bool = True,
+    camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> list[Path]:
     """One GIF per noise of the detector driver with all filters.
 
@@ -53,6 +55,9 @@ def write_videos(
         Weathers, one video each (default :data:`DEMO_NOISES`).
     progress : bool, optional
         Show a progress bar.
+    camera_profile : CameraProfile, dict or path, optional
+        The camera of the videos (RoadCam's ``camera_profile``, e.g. a TOML file
+        from ``simroad calibrate``); None is simroad's default profile.
 
     Returns
     -------
@@ -62,9 +67,10 @@ def write_videos(
     if isinstance(noises, str) or not noises:
         raise InvalidParameterError(f"noises: expected a tuple of weathers such as ('clear', 'rain'), got {noises!r}.")
     check_output_dir("out", out)
+    options = {} if camera_profile is None else {"camera_profile": resolve_profile(camera_profile)}
     specs = [  # every episode checked before the first one runs
         EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=parse_filters("all"),
-                    seed=seed, steps=steps, route_m=1e4)
+                    seed=seed, steps=steps, route_m=1e4, env_options=options)
         for noise in noises
     ]  # fmt: skip
     directory = ensure_writable_dir("out", out)

@@ -33,6 +33,10 @@ slide_steps               policy steps in which the ego's tyres slid
 mean_speed_m_s            distance over time driven, m/s
 friction                  whether tyre–road friction limited the dynamics
                           (RoadCam's ``friction`` option)
+camera_profile            the camera the frames came from: the fields of the
+                          episode's :class:`~simroad.camera.profile.CameraProfile`
+                          (``CameraProfile.as_dict()``; simroad's default profile
+                          when none was given)
 detect_ms_median          median milliseconds of one driver call per step
                           (perception and control: the detector's mask
                           prediction plus the lane keeper, or a custom driver)
@@ -57,6 +61,7 @@ from typing import Any
 
 import numpy as np
 
+from simroad.camera.profile import resolve_profile
 from simroad.control.drivers import DRIVER_NAMES, make_driver
 from simroad.core.validation import (
     check_bool,
@@ -74,7 +79,7 @@ from simroad.filters import format_filters, parse_filters  # re-exported here fo
 from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
-__all__ = ["RECORD_KEYS", "EpisodeSpec", "run_episode"]
+__all__ = ["RECORD_KEYS", "EpisodeSpec", "profile_record", "run_episode"]
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
@@ -83,7 +88,7 @@ RECORD_KEYS = (
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
     "route_completion", "min_ttc_s", "min_stopping_margin_m", "slide_steps", "mean_speed_m_s", "friction",
-    "driving_score",
+    "camera_profile", "driving_score",
     "detect_ms_median", "step_ms_median", "wall_s",
 )  # fmt: skip
 
@@ -251,10 +256,17 @@ def run_episode(
         if not math.isfinite(record[key]):
             record[key] = None
     record["friction"] = env.config.friction
+    record["camera_profile"] = profile_record(env.config.camera_profile)
     record["detect_ms_median"] = float(np.median(detect_ms)) if detect_ms else 0.0
     record["step_ms_median"] = float(np.median(step_ms)) if step_ms else 0.0
     record["wall_s"] = time.perf_counter() - t_start
     return {k: record[k] for k in RECORD_KEYS}
+
+
+def profile_record(profile: Any) -> dict[str, Any]:
+    """The ``camera_profile`` of a record: the fields of ``profile`` (a CameraProfile,
+    a dict, a TOML path, or None for simroad's default)."""
+    return resolve_profile(profile).as_dict()
 
 
 def _detector_record(pilot: Any) -> dict[str, str]:

@@ -16,6 +16,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.core.names import HELD_OUT_SEEDS
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.detector import RoadDetector
@@ -218,6 +219,7 @@ def evaluate_detector(
     model: str | os.PathLike | None = None,
     detector: str = "paper",
     detector_options: Mapping[str, Any] | None = None,
+    camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> tuple[list[dict], list[dict]]:
     """Score a detector on held-out rendered frames, or on a folder of images and masks.
 
@@ -240,6 +242,9 @@ def evaluate_detector(
         Any detector by spec (:func:`simroad.detector.registry.load_detector`), built
         with its options and each setting's filters in front; ``paper`` (default) is
         the shipped model. Not with ``model``.
+    camera_profile : CameraProfile, dict or path, optional
+        The camera of the rendered frames (RoadCam's ``camera_profile``); not with
+        ``images`` (photographs come from their own camera).
 
     Returns
     -------
@@ -254,6 +259,11 @@ def evaluate_detector(
     if images is not None or masks is not None:
         if images is None or masks is None:
             raise InvalidParameterError("images: --images and --masks go together.")
+        if camera_profile is not None:
+            raise InvalidParameterError(
+                "camera_profile: sets the camera of rendered frames; the images come from their own camera. "
+                "Drop one of them."
+            )
     else:
         check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
         check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
@@ -261,9 +271,11 @@ def evaluate_detector(
     if images is not None and masks is not None:
         frames = load_image_folder(images, masks)
     else:
+        options = {} if camera_profile is None else {"camera_profile": resolve_profile(camera_profile)}
         frames = collect_frames(
-            scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, noise=noise, severity=severity
-        )
+            scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, noise=noise, severity=severity,
+            env_options=options,
+        )  # fmt: skip
     return evaluate_frames(frames, parsed, detector_factory=factory)
 
 

@@ -77,6 +77,7 @@ def export_frames(
     meta = {
         "seed": int(seed),
         "env": {k: v for k, v in (env_kwargs or {}).items() if isinstance(v, (str, int, float, bool, type(None)))},
+        "camera_profile": env.config.camera_profile.as_dict() if env.config.camera_profile is not None else None,
         "camera": {
             "width": c.width,
             "height": c.height,

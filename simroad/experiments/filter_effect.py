@@ -20,10 +20,13 @@ again. ``resolved`` says the interval lies below 0.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable, Iterable, Sequence
+from typing import Any
 
 import numpy as np
 
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.core.names import HELD_OUT_SEEDS
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.detector import RoadDetector
@@ -49,13 +52,15 @@ def _default_factory(filters: tuple[str, ...]):
     return RoadDetector.pretrained(filters=filters)
 
 
-def _render(noise: str, seeds: tuple[int, ...], frames: int, severity: float, every: int, cache: dict) -> FrameSet:
+def _render(
+    noise: str, seeds: tuple[int, ...], frames: int, severity: float, every: int, cache: dict, profile: Any = None
+) -> FrameSet:
     """Frames of every scenario and seed under ``noise``, rendered once per cache."""
-    key = (noise, seeds, frames, severity, every)
+    key = (noise, seeds, frames, severity, every, profile)
     if key not in cache:
         cache[key] = collect_frames(
             scenarios=SCENARIO_NAMES, seeds=seeds, frames_per_seed=frames, every=every,
-            noise=noise, severity=severity,
+            noise=noise, severity=severity, env_options={} if profile is None else {"camera_profile": profile},
         )  # fmt: skip
     return cache[key]
 
@@ -104,6 +109,7 @@ def filter_effect(
     every: int = 4,
     detector_factory: DetectorFactory | None = None,
     cache: dict | None = None,
+    camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> dict:
     """Score the detector without filters and with ``filters`` on frames under ``noise``.
 
@@ -127,6 +133,9 @@ def filter_effect(
         ``filters -> fitted detector``; default :meth:`RoadDetector.pretrained`.
     cache : dict, optional
         Rendered frames keyed by protocol, reused across calls (pass the same dict).
+    camera_profile : CameraProfile, dict or path, optional
+        The camera of every frame (RoadCam's ``camera_profile``, e.g. a TOML file
+        from ``simroad calibrate``); None is simroad's default profile.
 
     Returns
     -------
@@ -145,7 +154,8 @@ def filter_effect(
     if not names:
         raise InvalidParameterError("filters: expected at least one filter to compare against none, got none.")
     factory = detector_factory or _default_factory
-    frame_set = _render(noise, worlds, frames, severity, every, {} if cache is None else cache)
+    profile = None if camera_profile is None else resolve_profile(camera_profile)
+    frame_set = _render(noise, worlds, frames, severity, every, {} if cache is None else cache, profile)
     without, counts_off = _score(factory(()), frame_set)
     with_, counts_on = _score(factory(names), frame_set)
     diff, lo, hi = paired_pooled_difference(counts_on, counts_off)
@@ -166,6 +176,7 @@ def filter_effect_table(
     noises: Sequence[str] = _NOISES,
     detector_factory: DetectorFactory | None = None,
     cache: dict | None = None,
+    camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> list[dict]:
     """The protocol: each filter on its matching noise, then all filters on
     each noise. One :func:`filter_effect` row per case, each noise rendered once.
@@ -182,7 +193,7 @@ def filter_effect_table(
     worlds = tuple(seeds)
     return [
         filter_effect(n, f, seeds=worlds, frames=frames, severity=severity, every=every,
-                      detector_factory=detector_factory, cache=cache)
+                      detector_factory=detector_factory, cache=cache, camera_profile=camera_profile)
         for n, f in cases
     ]  # fmt: skip
 

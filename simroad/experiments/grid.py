@@ -13,6 +13,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.core.validation import (
     check_bool,
     check_choice,
@@ -82,6 +83,9 @@ class AblationGrid:
     ``detector_options[spec]`` (keyword options) and the filter set in front.
     ``friction=False`` runs every episode without tyre–road friction (RoadCam's
     ``friction`` option), to separate perception losses from dynamics losses.
+    ``camera_profile`` (a :class:`~simroad.camera.profile.CameraProfile`, a dict of
+    its fields or the path of a TOML profile, e.g. from ``simroad calibrate``) is
+    every episode's camera (RoadCam's ``camera_profile``); None is simroad's default.
     """
 
     scenarios: tuple[str, ...] = ("racetrack", "winding")
@@ -96,6 +100,7 @@ class AblationGrid:
     detectors: tuple[str, ...] = ("paper",)
     detector_options: dict = field(default_factory=dict)
     friction: bool = True
+    camera_profile: CameraProfile | None = None
 
     def __post_init__(self) -> None:
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
@@ -128,6 +133,15 @@ class AblationGrid:
         check_bool("traffic", self.traffic)
         check_bool("oracle", self.oracle)
         check_bool("friction", self.friction)
+        if self.camera_profile is not None:
+            try:
+                profile = resolve_profile(self.camera_profile)
+            except SimroadError as exc:  # name the grid's key, whatever field the profile refused
+                text = str(exc)
+                raise InvalidParameterError(
+                    text if text.startswith("camera_profile") else f"camera_profile: {text}"
+                ) from None
+            object.__setattr__(self, "camera_profile", profile)
 
     def specs(self) -> list[EpisodeSpec]:
         """Every episode of the grid, in a fixed order."""
@@ -144,7 +158,7 @@ class AblationGrid:
                             seed=seed,
                             steps=self.steps,
                             traffic=self.traffic,
-                            env_options={} if self.friction else {"friction": False},
+                            env_options=self._env_options(),
                         )
                         if self.oracle:
                             out.append(base(driver="oracle"))
@@ -156,9 +170,20 @@ class AblationGrid:
                                 )
         return out
 
+    def _env_options(self) -> dict[str, Any]:
+        """The RoadCam options every episode of the grid shares."""
+        options: dict[str, Any] = {} if self.friction else {"friction": False}
+        if self.camera_profile is not None:
+            options["camera_profile"] = self.camera_profile
+        return options
+
     def fingerprint(self) -> str:
-        """A digest of everything that defines the grid's results."""
-        text = json.dumps(asdict(self), sort_keys=True)
+        """A digest of everything that defines the grid's results (a grid without a
+        camera profile digests as before the field existed, so its sweeps resume)."""
+        fields_ = asdict(self)
+        if fields_["camera_profile"] is None:
+            del fields_["camera_profile"]
+        text = json.dumps(fields_, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -202,7 +227,9 @@ def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dic
 
 def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     """Read a TOML grid file; keys are AblationGrid's fields (``seed-start`` or
-    ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``."""
+    ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``. A
+    ``camera_profile`` path is taken relative to the grid file's folder; it may also
+    be a ``[camera_profile]`` table of the profile's fields."""
     p = Path(path)
     if p.is_dir():
         raise InvalidParameterError(
@@ -227,6 +254,8 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
                 f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}"
             )
         out[k] = _check_run_key(k, value, p) if k in RUN_KEY_TYPES else value
+    if isinstance(out.get("camera_profile"), str):  # a profile file next to the grid file
+        out["camera_profile"] = str(p.parent / Path(out["camera_profile"]).expanduser())
     return out
 
 

@@ -49,6 +49,7 @@ __all__ = [
     "RealismReport",
     "format_realism_table",
     "photo_reference",
+    "photo_statistics",
     "realism_figure",
     "realism_report",
     "write_realism",
@@ -239,16 +240,25 @@ def realism_report(
     return RealismReport(tuple(kept), array, ref, tuple(skipped))
 
 
-def photo_reference(
+def photo_statistics(
     photos: str | os.PathLike, masks: str | os.PathLike, *, min_road_pixels: int = MIN_ROAD_PIXELS
-) -> AppearanceReference:
-    """A reference from the user's own photographs and their road masks.
+) -> tuple[dict[str, np.ndarray], str]:
+    """The appearance statistics of the user's own photographs, one value per photo.
 
     Pairs ``photos/NAME.*`` with ``masks/NAME.*`` as
     :func:`~simroad.experiments.evaluate.load_image_folder` does (road where the mask
-    is > 127), computes each photo's statistics and takes their quantiles
-    (:func:`~simroad.metrics.appearance.reference_from_values`). Photos with fewer
-    than ``min_road_pixels`` road pixels are left out; the source says how many.
+    is > 127) and computes each photo's statistics
+    (:func:`~simroad.metrics.appearance.frame_appearance`). Photos with fewer than
+    ``min_road_pixels`` road pixels are left out. Refuses, naming ``photos`` or
+    ``masks``: a folder that is missing or holds no image with a mask, masks of
+    another size than their photo, masks with too little road in every photo.
+
+    Returns
+    -------
+    values : dict
+        ``{statistic: float array (n_photos,)}`` (NaN where a statistic has no value).
+    source : str
+        How many photos, from where, and how many were left out.
     """
     try:
         loaded = load_image_folder(photos, masks)
@@ -278,7 +288,17 @@ def photo_reference(
             f"masks: in every photo of {str(photos)!r} the road fills the lower half, so road_minus_surround has "
             "no value; add photos showing some roadside, or mask less than the whole lower half."
         )
-    return reference_from_values(values, f"{n} photographs in {photos!s}{left_out}")
+    return {s: np.array(v, float) for s, v in values.items()}, f"{n} photographs in {photos!s}{left_out}"
+
+
+def photo_reference(
+    photos: str | os.PathLike, masks: str | os.PathLike, *, min_road_pixels: int = MIN_ROAD_PIXELS
+) -> AppearanceReference:
+    """A reference from the user's own photographs and their road masks: the quantiles
+    (:func:`~simroad.metrics.appearance.reference_from_values`) of their statistics
+    (:func:`photo_statistics`, which says what it refuses)."""
+    values, source = photo_statistics(photos, masks, min_road_pixels=min_road_pixels)
+    return reference_from_values(values, source)
 
 
 def _number(value: float, statistic: str) -> str:

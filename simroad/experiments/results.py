@@ -37,7 +37,8 @@ REJECTED_NAME = "results.rejected.jsonl"
 #: >= 0 (not a bool); ``severity`` a number in [0, 1]; ``number`` an int or float
 #: (NaN for a failed episode); ``flag`` a bool or a number (NaN for a failed episode);
 #: ``number|null`` a number or null; ``text|null`` a string or null (optional key);
-#: ``label`` a string, empty where it does not apply (the oracle has no detector).
+#: ``label`` a string, empty where it does not apply (the oracle has no detector);
+#: ``table`` a JSON object (the camera profile's fields).
 ROW_TYPES: dict[str, str] = {
     **dict.fromkeys(RECORD_KEYS, "number"),
     **dict.fromkeys(("scenario", "noise", "filters", "driver"), "text"),
@@ -48,9 +49,11 @@ ROW_TYPES: dict[str, str] = {
     "min_ttc_s": "number|null",
     "min_stopping_margin_m": "number|null",
     "friction": "flag",
+    "camera_profile": "table",
     "error": "text|null",
 }
-_OPTIONAL = ("error",)
+#: Keys a row may lack (``camera_profile``: rows written before records held it).
+_OPTIONAL = ("error", "camera_profile")
 
 
 def _is_number(v: Any) -> bool:
@@ -66,6 +69,7 @@ _CHECKS: dict[str, Callable[[Any], bool]] = {
     "number|null": lambda v: v is None or _is_number(v),
     "text|null": lambda v: v is None or isinstance(v, str),
     "label": lambda v: isinstance(v, str),
+    "table": lambda v: isinstance(v, Mapping) and all(isinstance(k, str) for k in v),
 }
 _EXPECTED = {
     "text": "a non-empty string",
@@ -76,6 +80,7 @@ _EXPECTED = {
     "number|null": "a number or null",
     "text|null": "a string or null",
     "label": "a string",
+    "table": "a JSON object of named values",
 }
 
 

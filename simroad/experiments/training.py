@@ -6,6 +6,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.core.names import TRAIN_SEEDS
 from simroad.core.validation import check_int_in_range
 from simroad.detector import train_default
@@ -44,6 +45,7 @@ def train_detector(
     frames_per_seed: int = TRAIN_FRAMES_PER_SEED,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seed: int = 0,
+    camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> Path:
     """Render clean frames and fit the default detector on them, as for the shipped model.
 
@@ -61,6 +63,9 @@ def train_detector(
         Scenarios rendered (default: all).
     seed : int, optional
         Seeds the choice of training pixels.
+    camera_profile : CameraProfile, dict or path, optional
+        The camera of every frame (RoadCam's ``camera_profile``, e.g. a TOML file
+        from ``simroad calibrate``); None is simroad's default profile.
 
     Returns
     -------
@@ -72,8 +77,11 @@ def train_detector(
     check_frame_protocol(scenarios=scenarios, seeds=seeds, noise="clear", severity=0.0)
     check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
     check_int_in_range("seed", seed, 0, 2**32 - 1)
+    options = {} if camera_profile is None else {"camera_profile": resolve_profile(camera_profile)}
     path = check_writable_file("out", out)
-    frames = collect_frames(scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, every=6)
+    frames = collect_frames(
+        scenarios=scenarios, seeds=seeds, frames_per_seed=frames_per_seed, every=6, env_options=options
+    )
     det = train_default(frames.images, frames.masks, rng=seed)
     det.save(path)
     return path

@@ -36,8 +36,8 @@ PARAMS = [*(m.params_type for m in MODELS.values()), WindscreenParams]
 CONFIGS = [
     RoadCamConfig,
     CameraConfig,
-    SensorParams,
     CameraProfile,
+    SensorParams,
     EpisodeSpec,
     AblationGrid,
     ControllerConfig,
@@ -72,14 +72,14 @@ _BY_TYPE: dict[str, list[tuple[str, object]]] = {
     "tuple[float, float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12, 1e12))],
     "tuple[float, float]": [("wrong type", 5), ("out of range", (1e12, 1e12))],
     "CameraConfig": [("wrong type", 5), ("a dict", {"width": 320})],
-    "CameraProfile | None": [
-        ("wrong type", 5),
-        ("unknown key", {"bogus": 1}),
-        ("out of range", {"tone_gamma": 9.0}),
-        ("missing file", "/no/such/camera.toml"),
-    ],
     "dict": [("wrong type", 5), ("unknown key", {"bogus": 1})],
     "dict | None": [("wrong type", 5), ("unknown key", {"bogus": 1})],
+    "CameraProfile | None": [
+        ("wrong type", 5),
+        ("unknown key", {"tone_gama": 1.3}),
+        ("out of range", {"asphalt_scale": 9.0}),
+        ("missing file", "nowhere.toml"),
+    ],
 }
 
 #: Fields whose generated value would be valid, with cases that are not.

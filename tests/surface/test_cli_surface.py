@@ -45,6 +45,7 @@ BASE: dict[str, tuple[list[str], dict[str, str]]] = {
     "figure": (["camera"], {"--out": "{ok}/figure.png"}),
     "videos": ([], {"--out": "{ok}/videos"}),
     "realism": ([], {"--out": "{ok}/realism"}),
+    "calibrate": ([], {"--photos": "{dir}", "--masks": "{dir}", "--out": "{ok}/camera.toml"}),
 }
 
 #: Values refused by the argparse types of each :mod:`simroad.cli.types` factory (or each
@@ -96,6 +97,10 @@ BAD_INPUTS: dict[str, Callable[..., list[tuple[str, str]]]] = {
         ("unknown name", "sometimes"), ("shorter than a cycle", "0.5"), ("negative", "-1"), ("not finite", "nan"),
     ],
     "check_ray_address": lambda **_: [("empty", ""), ("no port", "localhost"), ("port", "host:0")],
+    "_profile": lambda **_: [
+        ("missing", "{missing}"), ("a directory", "{dir}"), ("not TOML", "{file}"),
+        ("unknown key", "{bad_profile}"), ("out of range", "{wide_profile}"),
+    ],
 }  # fmt: skip
 
 
@@ -204,6 +209,8 @@ def files(paths, write):
     paths = dict(paths)
     paths["bad_toml"] = write("bad.toml", "scenarios = [[[ not toml")
     paths["binary"] = write("binary.toml", b"\xff\xfe\x00\x00garbage")
+    paths["bad_profile"] = write("bad_profile.toml", "[camera_profile]\ntone_gama = 1.3\n")
+    paths["wide_profile"] = write("wide_profile.toml", "[camera_profile]\nasphalt_scale = 9.0\n")
     return paths
 
 
@@ -277,6 +284,14 @@ MODE_CASES = [
                  id="realism unreadable photos"),
     pytest.param(["evaluate-detector", "--images", "{images}", "--masks", "{images}"], ("images",),
                  id="evaluate-detector unreadable images"),
+    pytest.param(["calibrate", "--photos", "{images}", "--masks", "{images}", "--out", "{ok}/c.toml"], ("photos",),
+                 id="calibrate unreadable photos"),
+    pytest.param(["calibrate", "--photos", "{dir}", "--masks", "{dir}", "--out", "{ok}/c.toml"], ("photos",),
+                 id="calibrate no photos"),
+    pytest.param(["figure", "friction", "--out", "{ok}/f.png", "--camera-profile", "{profile}"], ("--camera-profile",),
+                 id="figure friction with --camera-profile"),
+    pytest.param(["evaluate-detector", "--images", "{dir}", "--masks", "{dir}", "--camera-profile", "{profile}"],
+                 ("--camera-profile",), id="evaluate-detector --images with --camera-profile"),
 ]  # fmt: skip
 
 
@@ -289,8 +304,8 @@ def image_folder(tmp_path):
 
 
 @pytest.mark.parametrize(("argv", "names"), MODE_CASES)
-def test_flags_that_do_not_apply_are_refused(argv, names, files, image_folder, no_work, capsys):
-    files = {**files, "images": image_folder}
+def test_flags_that_do_not_apply_are_refused(argv, names, files, image_folder, write, no_work, capsys):
+    files = {**files, "images": image_folder, "profile": write("camera.toml", "tone_gamma = 1.3\n")}
     argv = [a.format(**files) if "{" in a else a for a in argv]
     code, err = _run(argv, capsys)
     _assert_refused(code, err, names)
@@ -304,6 +319,12 @@ _TOML_BAD = {
     "tuple[float, ...]": [("not a number", '[0.5, "x"]'), ("out of range", "[2.0]")],
     "int": [("wrong type", '"3"'), ("out of range", "-1")],
     "bool": [("string boolean", '"no"'), ("integer", "3")],
+    "CameraProfile | None": [
+        ("wrong type", "5"),
+        ("unknown key", "{{ tone_gama = 1.3 }}"),
+        ("out of range", "{{ asphalt_scale = 9.0 }}"),
+        ("missing file", '"nowhere.toml"'),
+    ],
 }
 _RUN_BAD = {
     "workers": [("wrong type", '"2"'), ("out of range", "0")],
