@@ -19,6 +19,7 @@ from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
+from simroad.envs._town_parts import IndexedNetwork
 from simroad.envs.scenarios import ScenarioSpec
 
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments", "make_winding"]
@@ -90,7 +91,7 @@ def build_winding_network(segments: list[Segment], *, lane_width_m: float) -> tu
 
     Returns the network and the ordered forward node names.
     """
-    net = RoadNetwork()
+    net = IndexedNetwork()  # highway-env's network with an exact, faster closest-lane search
     p = np.zeros(2)
     h = 0.0
     hw = lane_width_m / 2.0

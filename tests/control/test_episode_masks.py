@@ -24,7 +24,6 @@ import pytest
 from simroad.control import make_driver
 from simroad.detector import RoadDetector
 from simroad.envs import RoadCamEnv
-from simroad.experiments.frames import collect_frames
 from simroad.filters import FILTERS
 
 RECORD = json.loads((Path(__file__).parent / "data" / "glare_episode_masks.json").read_text())
@@ -77,10 +76,10 @@ def test_a_closed_loop_glare_episode_gives_todays_masks(key):
 
 
 @pytest.fixture(scope="module")
-def sequence():
-    glare = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8).images[0]
-    clear = collect_frames(scenarios=("town",), seeds=[7], frames_per_seed=1).images[0]
-    fs = collect_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
+def sequence(shared_frames):
+    glare = shared_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8).images[0]
+    clear = shared_frames(scenarios=("town",), seeds=[7], frames_per_seed=1).images[0]
+    fs = shared_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
     sun, ground = fs.images[0], fs.valid[0]
     _same_renderer([frame_hash(a) for a in (clear, glare, sun, ground)], RECORD["sequence"]["frames"])
 

@@ -39,28 +39,33 @@ def render_frames(seed: int, n: int, *, size=(160, 90)) -> tuple[list[np.ndarray
     return images, masks
 
 
-@pytest.fixture(scope="session")
-def train_frames():
+def _frames_of(seeds, n: int, size=(160, 90)) -> tuple[list[np.ndarray], list[np.ndarray]]:
     images, masks = [], []
-    for seed in (1, 2, 3, 4):
-        i, m = render_frames(seed, 3)
+    for seed in seeds:
+        i, m = render_frames(seed, n, size=size)
         images += i
         masks += m
     return images, masks
 
 
+# Rendered (and the small detector fitted) once per test run, not once per xdist worker:
+# see computed_once in tests/conftest.py.
 @pytest.fixture(scope="session")
-def heldout_frames():
-    images, masks = [], []
-    for seed in (101, 102, 103, 104, 105):
-        i, m = render_frames(seed, 3, size=(320, 180))
-        images += i
-        masks += m
-    return images, masks
+def train_frames(computed_once):
+    return computed_once("train_frames", _frames_of, (1, 2, 3, 4), 3)
 
 
 @pytest.fixture(scope="session")
-def small_detector(train_frames):
+def heldout_frames(computed_once):
+    return computed_once("heldout_frames", _frames_of, (101, 102, 103, 104, 105), 3, size=(320, 180))
+
+
+def _fit_small(train_frames):
     from simroad.detector import RoadDetector
 
     return RoadDetector(max_samples=1500).fit(*train_frames)
+
+
+@pytest.fixture(scope="session")
+def small_detector(computed_once, train_frames):
+    return computed_once("small_detector", lambda: _fit_small(train_frames))

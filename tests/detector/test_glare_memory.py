@@ -8,14 +8,13 @@ import pytest
 from simroad.detector import RoadDetector
 from simroad.detector.episode import GLARE_MEMORY_FRAMES, GlareMemory
 from simroad.detector.registry import predict_alone
-from simroad.experiments.frames import collect_frames
 from simroad.filters import FILTERS, remove_glare
 
 
 @pytest.fixture(scope="module")
-def frames():
-    glare = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
-    clear = collect_frames(scenarios=("town",), seeds=[7], frames_per_seed=1)
+def frames(shared_frames):
+    glare = shared_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
+    clear = shared_frames(scenarios=("town",), seeds=[7], frames_per_seed=1)
     return glare.images[0], clear.images[0]
 
 
@@ -65,10 +64,10 @@ def test_without_the_improved_light_filter_nothing_is_remembered(frames, kwargs)
 
 
 @pytest.fixture(scope="module")
-def sun_down_the_lane():
+def sun_down_the_lane(shared_frames):
     """A winding-road frame whose glare lobe runs up to the horizon and meets the bright sky
     without a step (before the bound, growth without a camera flooded 18,560 sky pixels)."""
-    fs = collect_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
+    fs = shared_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
     return fs.images[0], fs.valid[0]
 
 

@@ -15,7 +15,6 @@ import pytest
 from simroad import SimroadError
 from simroad.detector import DetectorEpisode, GlareMemory, RoadDetector
 from simroad.detector.episode import GLARE_MEMORY_FRAMES
-from simroad.experiments.frames import collect_frames
 from simroad.filters import FILTERS, remove_glare
 
 
@@ -40,10 +39,10 @@ def same(a, b, where="__dict__"):
 
 
 @pytest.fixture(scope="module")
-def frames():
-    glare = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
-    clear = collect_frames(scenarios=("town",), seeds=[7], frames_per_seed=1)
-    sun = collect_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
+def frames(shared_frames):
+    glare = shared_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
+    clear = shared_frames(scenarios=("town",), seeds=[7], frames_per_seed=1)
+    sun = shared_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
     return glare.images[0], clear.images[0], sun.images[0], sun.valid[0]
 
 

@@ -140,8 +140,8 @@ def test_rendered_frames_without_glare_pass_through_bit_identical(noise):
         np.testing.assert_array_equal(out, img)
 
 
-def test_a_rendered_low_sun_ahead_is_found_and_removed():
-    frames = collect_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
+def test_a_rendered_low_sun_ahead_is_found_and_removed(shared_frames):
+    frames = shared_frames(scenarios=("highway",), seeds=[7], frames_per_seed=1, noise="glare", severity=0.8)
     img = frames.images[0]
     out, mask = remove_glare(img)
     assert mask[100:].mean() > 0.02 and not mask[:70].any()
