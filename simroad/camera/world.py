@@ -25,6 +25,7 @@ from typing import Protocol
 
 import cv2
 import numpy as np
+from highway_env.road.lane import CircularLane, StraightLane
 
 from simroad.camera._tile_kernel import compose_tile
 from simroad.camera.codes import (  # re-exported: importers of simroad.camera.world keep working
@@ -39,7 +40,7 @@ from simroad.camera.mesh import Mesh
 from simroad.camera.palette import Palette, draw_palette
 from simroad.camera.textures import ground_textures, wear_factor
 from simroad.camera.window import Window  # re-exported: importers of simroad.camera.world keep working
-from simroad.core.lanes import lane_signed_distance, supports_vectorised
+from simroad.core.lanes import lane_positions, lane_signed_distance, supports_vectorised
 from simroad.errors import InvalidParameterError, SimroadError
 
 __all__ = [
@@ -106,7 +107,11 @@ def _sample_s(lane) -> np.ndarray:
 
 
 def _edge(lane, s: np.ndarray, lat: np.ndarray | float) -> np.ndarray:
+    """``lane.position(s_i, lat_i)`` for every sample, (N, 2) (straight and circular lanes
+    at once: :func:`simroad.core.lanes.lane_positions`)."""
     lat = np.broadcast_to(np.asarray(lat, dtype=float), s.shape)
+    if type(lane) in (StraightLane, CircularLane):
+        return lane_positions(lane, s, lat)
     return np.array([lane.position(float(si), float(li)) for si, li in zip(s, lat)])
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from highway_env.road.lane import CircularLane, SineLane, StraightLane
 
-__all__ = ["lane_local", "lane_signed_distance", "supports_vectorised"]
+__all__ = ["lane_local", "lane_positions", "lane_signed_distance", "supports_vectorised"]
 
 
 def supports_vectorised(lane) -> bool:
@@ -38,6 +38,19 @@ def lane_local(lane, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarr
         r = np.hypot(dx, dy)
         return lane.direction * (phi - lane.start_phase) * lane.radius, lane.direction * (lane.radius - r)
     raise TypeError(f"no vectorised local coordinates for {type(lane).__name__}")
+
+
+def lane_positions(lane, s: np.ndarray, lat: np.ndarray) -> np.ndarray:
+    """World positions (N, 2) of lane coordinates ``(s_i, lat_i)``: highway-env's
+    ``StraightLane.position`` and ``CircularLane.position`` on whole arrays, the same
+    operations in the same order (so the same numbers)."""
+    if type(lane) is StraightLane:
+        return lane.start + s[:, None] * lane.direction + lat[:, None] * lane.direction_lateral
+    if type(lane) is CircularLane:
+        phi = lane.direction * s / lane.radius + lane.start_phase
+        ring = (lane.radius - lat * lane.direction)[:, None]
+        return lane.center + ring * np.stack([np.cos(phi), np.sin(phi)], axis=1)
+    raise TypeError(f"no vectorised positions for {type(lane).__name__}")
 
 
 def lane_signed_distance(lane, x: np.ndarray, y: np.ndarray) -> np.ndarray:
