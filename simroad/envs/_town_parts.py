@@ -1,5 +1,5 @@
-"""The town's parts below the street plan: centre-line pieces, an indexed network,
-a road that skips parked cars where they cannot matter, and the parked car itself."""
+"""The town's parts below the street plan: centre-line pieces, a road that skips
+parked cars where they cannot matter, and the parked car itself."""
 
 from __future__ import annotations
 
@@ -8,10 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from highway_env.road.lane import AbstractLane, CircularLane, StraightLane
-from highway_env.road.road import Road, RoadNetwork
+from highway_env.road.road import Road
 from highway_env.vehicle.kinematics import Vehicle
 
-__all__ = ["IndexedNetwork", "ParkedVehicle", "Piece", "TownRoad"]
+__all__ = ["ParkedVehicle", "Piece", "TownRoad"]
 
 
 @dataclass(frozen=True)
@@ -59,46 +59,6 @@ class Piece:
         if reverse:
             pa, pb, clockwise = pb, pa, not clockwise
         return CircularLane(c, radius, pa, pb, clockwise=clockwise, width=width, line_types=line_types)
-
-
-class IndexedNetwork(RoadNetwork):
-    """highway-env's road network with an exact, faster ``get_closest_lane_index``.
-
-    A town has ~100 lanes; highway-env scans all of them for every moving car at
-    every physics step. A lane's ``distance_with_heading`` is at least the Euclidean
-    distance to its centre line, hence to the centre line's bounding box, so only
-    the lanes whose box is no farther than the best distance found need scanning;
-    ties go to the first lane in graph order, as in highway-env.
-    """
-
-    def _boxes(self) -> tuple[list, np.ndarray]:
-        cache = self.__dict__.get("_box_cache")
-        if cache is None or cache[0] != len(self.lanes_list()):
-            index, boxes = [], []
-            for _from, to_dict in self.graph.items():
-                for _to, lanes in to_dict.items():
-                    for _id, lane in enumerate(lanes):
-                        pts = np.array([lane.position(t, 0.0) for t in np.linspace(0.0, lane.length, 32)])
-                        boxes.append(np.concatenate([pts.min(axis=0) - 0.1, pts.max(axis=0) + 0.1]))
-                        index.append((_from, _to, _id))
-            cache = (len(index), index, np.asarray(boxes))
-            self.__dict__["_box_cache"] = cache
-        return cache[1], cache[2]
-
-    def get_closest_lane_index(self, position: np.ndarray, heading: float | None = None):
-        index, boxes = self._boxes()
-        x, y = float(position[0]), float(position[1])
-        dx = np.maximum(np.maximum(boxes[:, 0] - x, x - boxes[:, 2]), 0.0)
-        dy = np.maximum(np.maximum(boxes[:, 1] - y, y - boxes[:, 3]), 0.0)
-        bound = np.hypot(dx, dy)
-        best, best_k = math.inf, -1
-        for k in np.argsort(bound, kind="stable"):
-            if bound[k] > best:
-                break
-            d = float(self.get_lane(index[k]).distance_with_heading(position, heading))
-            if d < best or (d == best and k < best_k):
-                best, best_k = d, int(k)
-        return index[best_k]
 
 
 class TownRoad(Road):

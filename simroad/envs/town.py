@@ -25,7 +25,8 @@ from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
-from simroad.envs._town_parts import IndexedNetwork, ParkedVehicle, Piece, TownRoad
+from simroad.envs._network import IndexedNetwork
+from simroad.envs._town_parts import ParkedVehicle, Piece, TownRoad
 from simroad.envs.scenarios import ScenarioSpec
 
 __all__ = [

@@ -19,7 +19,7 @@ from highway_env.vehicle.behavior import IDMVehicle
 
 from simroad.core.validation import normalize_rng
 from simroad.envs._generated import GeneratedRoadEnv
-from simroad.envs._town_parts import IndexedNetwork
+from simroad.envs._network import IndexedNetwork
 from simroad.envs.scenarios import ScenarioSpec
 
 __all__ = ["Segment", "WindingRoadEnv", "build_winding_network", "generate_segments", "make_winding"]
