@@ -22,7 +22,7 @@ __all__ = [
     "SENSOR_DECODE",
     "auto_exposure_update",
     "metered_mean",
-    "saturate",
+    "process_chroma",
     "white_balance_gains",
 ]
 
@@ -39,22 +39,33 @@ SENSOR_DECODE[255] = OVER_RANGE
 SENSOR_DECODE.flags.writeable = False
 
 
-def white_balance_gains(params: SensorParams, illuminant_k: float) -> np.ndarray | None:
+def white_balance_gains(
+    params: SensorParams, illuminant_k: float, *, error_mired: float = 0.0, error_tint: float = 0.0
+) -> np.ndarray | None:
     """The cast a camera's white balance leaves on a scene lit by daylight of
     ``illuminant_k`` K: per-channel gains (R, G, B), green 1, float32; None when there
-    is none (a perfect correction, or light of the preset's colour).
+    is none (a perfect correction of light of the preset's colour, without error).
 
     Frames are rendered as a camera perfectly balanced for the scene's light would
     see them; a camera that balances for ``T_c`` instead (``awb_strength`` of the way
-    from ``wb_preset_k`` to ``illuminant_k`` in mired) multiplies them by
-    ``daylight_rgb(illuminant_k) / daylight_rgb(T_c)``.
+    from ``wb_preset_k`` to ``illuminant_k`` in mired, then ``error_mired`` further:
+    its estimate's error along the daylight locus) multiplies them by
+    ``daylight_rgb(illuminant_k) / daylight_rgb(T_c)``. ``error_tint`` is the
+    estimate's smaller error across the locus (log gain of green against red and
+    blue: positive is a green cast).
     """
     illuminant_k = check_in_range("illuminant_k", illuminant_k, *CCT_RANGE_K, unit="K")
-    if params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k:
+    if error_mired == 0.0 and error_tint == 0.0 and (
+        params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k
+    ):
         return None
     balanced_for = mired_mix(params.wb_preset_k, illuminant_k, params.awb_strength)
+    lo, hi = 1e6 / CCT_RANGE_K[1], 1e6 / CCT_RANGE_K[0]
+    balanced_for = 1e6 / min(hi, max(lo, 1e6 / balanced_for + error_mired))
     gains = daylight_rgb(illuminant_k) / daylight_rgb(balanced_for)
-    return (gains / gains[1]).astype(np.float32)
+    gains = gains / gains[1] * math.exp(-error_tint)
+    gains[1] = 1.0
+    return gains.astype(np.float32)
 
 
 def metered_mean(out: np.ndarray, top: int = 0) -> float:
@@ -105,13 +116,27 @@ def auto_exposure_update(
     return float(min(max(ev + step, params.ev_min), params.ev_max))  # np.clip's value, without its overhead
 
 
-def saturate(out: np.ndarray, factor: float) -> None:
-    """Scale the chroma of the encoded frame ``out`` (uint8 RGB, in place) by ``factor``
-    about its luma (Rec. 601 weights): ``Y + factor (c - Y)``, saturating at 0 and 255.
+def process_chroma(out: np.ndarray, factor: float, denoise_px: float = 0.0) -> None:
+    """The chroma stage of a camera's processing, on the encoded frame ``out`` (uint8
+    RGB, in place): the chroma ``c - Y`` about the luma (Rec. 601 weights) is smoothed
+    by a Gaussian of ``denoise_px`` pixels (none at 0) and scaled by ``factor``:
+    ``Y + factor * G(c - Y)``, saturating at 0 and 255.
 
-    The saturation stage of a camera's processing, after its colour correction matrix
-    and gamma: consumer and automotive cameras render colours 10-40 % more saturated
-    than colorimetric (a "preferred" reproduction), and with them the chroma noise.
+    Every camera's processor reduces chroma noise far more than luma noise (the eye
+    is blind to fine colour detail; video codecs then keep chroma at half resolution,
+    4:2:0): a grey road comes out grey, not speckled with colour. Consumer and
+    automotive cameras then render colours 10-40 % more saturated than colorimetric
+    (a "preferred" reproduction).
     """
     grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
+    if denoise_px > 0.0:
+        chroma = out.astype(np.float32)
+        chroma -= grey[:, :, None]
+        cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
+        chroma *= np.float32(factor)
+        chroma += grey[:, :, None]
+        np.clip(chroma, 0.0, 255.0, out=chroma)
+        np.rint(chroma, out=chroma)
+        out[...] = chroma
+        return
     cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)

@@ -34,6 +34,13 @@ SHOULDER_KINDS = ("asphalt", "gravel", "dirt", "concrete")
 _SHOULDER_P = {"asphalt": 0.4, "gravel": 0.3, "dirt": 0.2, "concrete": 0.1}
 #: Factor range of the soiling of the ground beside the lanes (shoulders, kerbs).
 _SOILING = (0.6, 0.9)
+#: Range of the sky-view factor of a street's sidewalk relative to its carriageway's:
+#: beside the facades a wall hides half the sky. In a canyon of height-to-width
+#: ``r``, a ground point a share ``f`` of the width from a wall sees the sky's share
+#: ``(sin atan(f / r) + sin atan((1 - f) / r)) / 2`` of diffuse light (Oke 1987,
+#: ch. 8; Johnson & Watson 1984): at ``f = 0.1`` that is 0.76 (``r = 0.5``) to 0.95
+#: (``r = 2``) of the street centre's. Rural roadsides are open: 1.
+_SIDEWALK_SKY_VIEW = (0.76, 0.95)
 #: Sidewalk materials: tarmac footways are most common in the UK and much of Europe,
 #: concrete slabs and poured concrete the rest (Department for Transport, Footway
 #: and Cycle Route Design, Construction and Maintenance Guide, 2003).
@@ -109,12 +116,24 @@ def _roadside_albedos(kind: str, rng: np.random.Generator) -> tuple[np.ndarray, 
     return draw_albedo("concrete_aged" if rng.random() < 0.6 else "concrete", rng), draw_albedo("concrete_aged", rng)
 
 
-def _shoulder_albedo(kind: str, rng: np.random.Generator, asphalt_scale: float) -> np.ndarray:
+def aggregate_hue(albedo: np.ndarray, brown: float) -> np.ndarray:
+    """Aged asphalt of a world whose aggregate is ``brown`` (0-1) of the way from grey
+    to brown: the albedo's chroma about its mean, scaled by ``brown``.
+
+    Worn asphalt takes the colour of the aggregate the binder wears off (Herold &
+    Roberts 2005): brown where it is a local sandstone or flint gravel (the measured
+    R/G ~ G/B ~ 1.2 of :data:`~simroad.camera.materials.ALBEDO`'s ``asphalt_aged``),
+    grey where it is granite, basalt or limestone, the common road stones."""
+    grey = float(np.mean(albedo))
+    return (grey + float(brown) * (np.asarray(albedo, np.float32) - grey)).astype(np.float32)
+
+
+def _shoulder_albedo(kind: str, rng: np.random.Generator, asphalt_scale: float, brown: float) -> np.ndarray:
     """A shoulder's albedo, soiled: tyre- and road-wear particles, brake dust and soot
     settle within a few metres of the traffic (Kole et al. 2017, Int. J. Environ. Res.
     Public Health 14:1265) and darken what lies beside the lanes by 10-40 %."""
     if kind == "asphalt":  # older than the lanes, untrafficked: no polish
-        base = draw_albedo("asphalt_aged", rng) * asphalt_scale
+        base = aggregate_hue(draw_albedo("asphalt_aged", rng), brown) * asphalt_scale
     else:
         base = draw_albedo({"gravel": "gravel", "dirt": "soil", "concrete": "concrete_aged"}[kind], rng)
     return np.clip(base * rng.uniform(*_SOILING), 0.0, 1.0)
@@ -158,12 +177,17 @@ def draw_palette(
     cp = camera_profile if camera_profile is not None else CameraProfile()
     # Drawn first: the binder's gloss, highest on fresh asphalt, lower as the aggregate is exposed.
     gloss = float(rng.uniform(*_SHEEN_RANGE))
+    brown = float(rng.random())  # the region's aggregate, grey (0) to brown (1)
     aged = rng.random() < cp.aged_share
     age = float(rng.uniform(0.45, 1.0) if aged else rng.uniform(0.0, 0.3))
-    fresh, old = draw_albedo("asphalt_fresh", rng), draw_albedo("asphalt_aged", rng)
+    fresh, old = draw_albedo("asphalt_fresh", rng), aggregate_hue(draw_albedo("asphalt_aged", rng), brown)
     sheen = gloss * (1.0 - 0.5 * age)
     asphalt = np.clip((fresh + min(1.0, age * 1.25) * (old - fresh)) * cp.asphalt_scale, 0.0, 1.0)
-    patch = draw_albedo("asphalt_fresh", rng) if rng.random() < 0.7 else draw_albedo("asphalt_aged", rng)
+    patch = (
+        draw_albedo("asphalt_fresh", rng)
+        if rng.random() < 0.7
+        else aggregate_hue(draw_albedo("asphalt_aged", rng), brown)
+    )
     patch = np.clip(patch * cp.asphalt_scale, 0.0, 1.0)
     if profile == "urban":
         p = np.array([_URBAN_ROADSIDE_P[k] for k in ROADSIDE_KINDS])
@@ -172,14 +196,17 @@ def draw_palette(
         kind = roadside or _choice(_RURAL_ROADSIDE_P, rng)
     rs, rs_alt = _roadside_albedos(kind, rng)
     shoulder = _choice(_SHOULDER_P, rng)
-    sh = _shoulder_albedo(shoulder, rng, cp.asphalt_scale)
+    sh = _shoulder_albedo(shoulder, rng, cp.asphalt_scale, brown)
     kerb = draw_albedo("kerb_stone", rng) * rng.uniform(*_SOILING)
     walk = _choice(_SIDEWALK_P, rng)
     if walk == "asphalt":
-        sidewalk = draw_albedo("asphalt_aged", rng) * cp.asphalt_scale
+        sidewalk = aggregate_hue(draw_albedo("asphalt_aged", rng), brown) * cp.asphalt_scale
     else:
         sidewalk = draw_albedo(walk, rng)
     sidewalk = np.clip(sidewalk * rng.uniform(*_SOILING), 0.0, 1.0)
+    if profile == "urban":  # beside the facades: less of the sky's light
+        shade = rng.uniform(*_SIDEWALK_SKY_VIEW)
+        sidewalk, kerb = sidewalk * shade, kerb * shade
     urban = profile == "urban"
     return Palette(
         profile=profile,

@@ -72,7 +72,7 @@ class CameraProfile:
     awb_strength: float = 0.55
     tone_gamma: float = CAMERA_TONE_GAMMA
     tone_shoulder: float = CAMERA_SHOULDER
-    saturation: float = 1.15
+    saturation: float = 1.2
     full_well_e: float = 6000.0
     overcast_share: float = 0.5
     hazy_share: float = 0.25

@@ -42,7 +42,7 @@ from simroad.camera.exposure import (
     SENSOR_DECODE,
     auto_exposure_update,
     metered_mean,
-    saturate,
+    process_chroma,
     white_balance_gains,
 )
 from simroad.camera.geometry import PinholeCamera
@@ -191,8 +191,8 @@ def apply_sensor(
         *gain_row_buffers(w),
     )
     measured = metered_mean(out, top)
-    if params.saturation != 1.0:
-        saturate(out, params.saturation)
+    if params.saturation != 1.0 or params.chroma_denoise_px > 0.0:
+        process_chroma(out, params.saturation, params.chroma_denoise_px)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
@@ -264,11 +264,12 @@ class Sensor:
         p, c = self.params, self.camera.config
         self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
         self._work = np.empty((c.height, c.width, 3), np.float32) if p.motion_blur else None
-        self.white_balance = white_balance_gains(p, illuminant_k)
-        if p.white_balance_error > 0.0:  # drawn after the noise field: that stream is unchanged
-            r, b = np.exp(rng.normal(0.0, p.white_balance_error, 2))
-            error = np.array([r, 1.0, b], dtype=np.float32)
-            self.white_balance = error if self.white_balance is None else self.white_balance * error
+        # Drawn after the noise field (that stream is unchanged): the AWB's error, along
+        # the daylight locus (in mired) and across it (a green or magenta tint).
+        locus, tint = rng.normal(0.0, 1.0, 2) if (p.wb_error_mired > 0.0 or p.white_balance_error > 0.0) else (0, 0)
+        self.white_balance = white_balance_gains(
+            p, illuminant_k, error_mired=p.wb_error_mired * locus, error_tint=p.white_balance_error * tint
+        )
         self.target = p.ae_target_mean
         if p.ae_scene_bias_ev > 0.0:  # the meter's scene-dependent bias, drawn last
             bias = float(rng.normal(0.0, p.ae_scene_bias_ev))

@@ -75,16 +75,26 @@ class SensorParams:
         the scene's light, in [0, 1]: 1 is a perfect grey-world correction, 0 a fixed
         preset. Cameras correct partly, so a scene lit by colder light than the preset
         (an overcast or blue sky) comes out cool and warmer light warm.
+    wb_error_mired : float
+        Standard deviation of the auto white balance's error along the daylight
+        locus, in mired, in [0, 200]: per episode the camera balances for a colour
+        temperature that far (``N(0, error)`` mired) from the one it aims at, bluer
+        or yellower. AWB estimates err mostly along the locus, by 10-30 mired on
+        real scenes (Finlayson, Hordley & Hubel 2001; Gijsenij, Gevers & van de
+        Weijer 2011, IEEE TIP 20:2475, median angular errors of 2-6 degrees).
     white_balance_error : float
-        Standard deviation of the auto white balance's error, in [0, 0.5]: per
-        episode the red and blue gains relative to green are off by a further factor
-        ``exp(N(0, error))`` each (AWB estimates from real scenes err by a few percent
-        to ~10 %); 0 leaves only the preset's and the partial correction's cast.
+        Standard deviation of the error across the locus, in [0, 0.5]: green against
+        red and blue, a log-gain ``N(0, error)`` per episode (a green or magenta
+        tint, smaller than the error along the locus).
     vignetting : bool
         cos^n fall-off of the field angle.
     saturation : float
         Chroma gain of the processing after the gamma, in [0, 3]: 1 is colorimetric,
         cameras render 1.1-1.4 (:func:`simroad.camera.exposure.saturate`).
+    chroma_denoise_px : float
+        Standard deviation (pixels, in [0, 10]) of the Gaussian the processing
+        smooths the chroma with (chroma noise reduction and 4:2:0 video), 0 for none
+        (:func:`simroad.camera.exposure.process_chroma`).
     vignetting_exponent : float
         ``n``, in [0, 8]: 4 is a thin lens's natural vignetting (the cos^4 law); the
         default 2 models a lens that partly compensates it, as automotive lenses do
@@ -111,8 +121,10 @@ class SensorParams:
     read_noise_e: float = 3.0
     wb_preset_k: float = _PROFILE.wb_preset_k
     awb_strength: float = _PROFILE.awb_strength
-    white_balance_error: float = 0.08
+    wb_error_mired: float = 15.0
+    white_balance_error: float = 0.02
     saturation: float = _PROFILE.saturation
+    chroma_denoise_px: float = 1.5
     vignetting: bool = True
     vignetting_exponent: float = 2.0
     motion_blur: bool = True
@@ -133,9 +145,11 @@ class SensorParams:
             "read_noise_e": (0.0, 1000.0, "e-", True),
             "wb_preset_k": (CCT_RANGE_K[0], 10000.0, "K", True),
             "awb_strength": (0.0, 1.0, "", True),
+            "wb_error_mired": (0.0, 200.0, "mired", True),
             "white_balance_error": (0.0, 0.5, "", True),
             "vignetting_exponent": (0.0, 8.0, "", True),
             "saturation": (0.0, 3.0, "", True),
+            "chroma_denoise_px": (0.0, 10.0, "px", True),
         }
         for name, value in check_fields_in_range(self, ranges, high_exclusive=("ae_target_mean", "ae_roi_top")).items():
             object.__setattr__(self, name, value)
@@ -152,11 +166,13 @@ class SensorParams:
             auto_exposure=False,
             ae_scene_bias_ev=0.0,
             saturation=1.0,
+            chroma_denoise_px=0.0,
             tone_shoulder=0.0,
             gamma=1.0,
             shot_noise=False,
             read_noise_e=0.0,
             awb_strength=1.0,
+            wb_error_mired=0.0,
             white_balance_error=0.0,
             vignetting=False,
             motion_blur=False,
@@ -171,9 +187,11 @@ class SensorParams:
             not any(effects)
             and self.read_noise_e == 0.0
             and self.white_balance_error == 0.0
+            and self.wb_error_mired == 0.0
             and self.awb_strength == 1.0
             and self.tone_shoulder == 0.0
             and self.gamma == 1.0
             and self.jpeg_quality is None
             and self.saturation == 1.0
+            and self.chroma_denoise_px == 0.0
         )

@@ -105,11 +105,14 @@ def _crack_mask(size: int, texel_m: float, rng: np.random.Generator, count: int)
 def _asphalt(p: Palette, size: int, texel_m: float, rng: np.random.Generator) -> np.ndarray:
     age = p.asphalt_age
     tone = 1.0 + 0.07 * periodic_noise(size, 4.0 / texel_m, rng) + 0.04 * periodic_noise(size, 0.6 / texel_m, rng)
-    alb = _grain(p.asphalt, size, rng, lum=0.06 + 0.08 * age, chroma=0.02 + 0.04 * age) * tone[..., None]
-    # Wear exposes the aggregate unevenly: its stones' colours (grey limestone, pink
-    # granite, dark basalt) show in decimetre-scale blotches of a few percent per channel.
+    alb = _grain(p.asphalt, size, rng, lum=0.06 + 0.08 * age, chroma=0.01 + 0.01 * age) * tone[..., None]
+    # Wear exposes the aggregate unevenly: its stones (grey limestone and granite, dark
+    # basalt) show in decimetre-scale blotches, lighter or darker by several percent and
+    # only faintly tinted: the stones differ far more in lightness than in hue.
     blotch = 0.03 + 0.07 * age
-    alb *= 1.0 + blotch * np.stack([periodic_noise(size, 0.25 / texel_m, rng) for _ in range(3)], axis=-1)
+    light = periodic_noise(size, 0.25 / texel_m, rng)[..., None]
+    hue = np.stack([periodic_noise(size, 0.25 / texel_m, rng) for _ in range(3)], axis=-1)
+    alb *= 1.0 + blotch * (light + 0.2 * hue)
     patches = _patch_mask(size, texel_m, rng, int(rng.poisson(1.0 + 6.0 * age)))[..., None]
     alb += patches * (_grain(p.asphalt_patch, size, rng, lum=0.06, chroma=0.03) * tone[..., None] - alb)
     cracks = 0.6 * _crack_mask(size, texel_m, rng, int(rng.poisson(12.0 * age * age)))[..., None]
