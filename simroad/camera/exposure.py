@@ -73,7 +73,7 @@ def metered_mean(out: np.ndarray, top: int = 0) -> float:
 
     The frame is averaged over a 16 x 9 grid of cells and the cells weighted by a
     Gaussian of the distance from the centre of the metering window (standard
-    deviation 0.35 of its width and height, 4.5 : 1 from the centre to a corner): the
+    deviation 0.35 of its width and height, 5.5 : 1 from the centre to a corner cell): the
     centre-weighted average metering of dash and automotive cameras, which favours
     what lies ahead over the frame's edges.
     """

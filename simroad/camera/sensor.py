@@ -5,13 +5,15 @@ goes through what a real automotive camera does to it, in physical order:
 
 1. motion blur from the ego's forward speed during the exposure, along the radial
    flow out of the focus of expansion, its length from the depth map;
-2. vignetting, the cos^4 law of the field angle;
+2. vignetting, cos^n of the field angle (n = 2 by default: a lens that partly
+   compensates the cos^4 law);
 3. exposure (nominal exposure time times the auto-exposure gain ``2**ev``) into
    electrons, photon shot noise and read noise (EMVA 1288's linear model), and the
    ADC (``adc_bits``, saturating at the full-well capacity);
 4. the camera response curve (a highlight shoulder and a gamma) and the encoding,
    one table lookup from the digital number to the 8-bit output;
-5. optionally JPEG compression.
+5. the chroma stage: chroma noise reduction and the saturation of the processing;
+6. optionally JPEG compression.
 
 The maths are pure functions (:mod:`simroad.camera._sensor_ops`); :class:`Sensor`
 holds the auto-exposure state, the generator and the pre-drawn noise field of one

@@ -8,7 +8,7 @@ import pytest
 
 from simroad.camera.lighting import NOMINAL_EXPOSURE
 from simroad.camera.materials import ALBEDO
-from simroad.camera.palette import ROADSIDE_KINDS, SHOULDER_KINDS, draw_palette
+from simroad.camera.palette import ROADSIDE_KINDS, SHOULDER_KINDS, aggregate_hue, draw_palette
 from simroad.camera.textures import ground_textures, periodic_noise, wear_factor
 from simroad.core.names import PROFILES
 from simroad.errors import SimroadError
@@ -20,18 +20,41 @@ def _grey(rgb: np.ndarray) -> np.ndarray:
 
 
 def test_every_kind_and_both_ages_are_drawn_and_albedos_lie_in_measured_ranges():
-    kinds, shoulders, ages = set(), set(), []
-    lo = np.asarray(ALBEDO["asphalt_fresh"].lo) * 0.85
-    hi = np.asarray(ALBEDO["asphalt_aged"].hi) * 1.15
+    kinds, shoulders, ages, blue_over_red = set(), set(), [], []
+    lo = np.mean(ALBEDO["asphalt_fresh"].lo) * 0.85
+    hi = np.mean(ALBEDO["asphalt_aged"].hi) * 1.15
     for seed in range(200):
         p = draw_palette(np.random.default_rng(seed))
         kinds.add(p.roadside)
         shoulders.add(p.shoulder)
         ages.append(p.asphalt_age)
-        assert np.all(np.asarray(p.asphalt) >= lo) and np.all(np.asarray(p.asphalt) <= hi)
+        a = np.asarray(p.asphalt)
+        assert lo <= a.mean() <= hi
+        blue_over_red.append(a[2] / a[0])
         assert 0.5 <= p.shoulder_width_m <= 2.5 and p.kerb_width_m == 0.0 and p.sidewalk_width_m == 0.0
     assert kinds == set(ROADSIDE_KINDS) and shoulders == set(SHOULDER_KINDS)
     assert min(ages) < 0.3 and max(ages) > 0.9
+    # Grey-aggregate roads are nearly neutral, brown ones as the measured R/G ~ G/B ~ 1.2.
+    assert max(blue_over_red) > 0.95 and min(blue_over_red) < 0.75
+
+
+def test_aggregate_hue_keeps_the_mean_and_scales_the_chroma():
+    brown = np.array([0.15, 0.125, 0.10], np.float32)
+    np.testing.assert_allclose(aggregate_hue(brown, 0.0), [0.125] * 3, rtol=1e-6)
+    np.testing.assert_allclose(aggregate_hue(brown, 1.0), brown, rtol=1e-6)
+    np.testing.assert_allclose(aggregate_hue(brown, 0.5), [0.1375, 0.125, 0.1125], rtol=1e-6)
+
+
+def test_urban_sidewalks_are_shaded_by_the_facades():
+    """Same materials drawn, less sky: an urban sidewalk is darker than the rural draw of it."""
+    ratios = []
+    for seed in range(100):
+        rural = draw_palette(np.random.default_rng(seed), roadside="grass", profile="rural")
+        urban = draw_palette(np.random.default_rng(seed), roadside="grass", profile="urban")
+        if rural.sidewalk_kind == urban.sidewalk_kind:
+            ratios.append(np.mean(urban.sidewalk) / np.mean(rural.sidewalk))
+    assert len(ratios) > 20
+    assert 0.7 < min(ratios) and max(ratios) < 1.0
 
 
 def test_roadside_can_be_as_dark_as_the_road():
@@ -88,15 +111,18 @@ def test_textures_are_srgb_of_their_albedos(profile):
     assert np.mean(lin) == pytest.approx(np.mean(p.roadside_albedo), rel=0.25)
 
 
-def test_aged_asphalt_is_not_perfectly_grey_and_concrete_roadside_is_grey():
-    road_grey, side_grey = [], []
-    for seed in range(12):
+def test_brown_aggregate_shows_and_grey_asphalt_and_concrete_roadside_are_grey():
+    brown, grey, side_grey = [], [], []
+    for seed in range(16):
         rng = np.random.default_rng(seed)
         p = draw_palette(rng, roadside="pavement")
         tex = ground_textures(p, 128, 0.1, rng)
-        road_grey.append(_grey(tex["asphalt"]).mean())
+        a = np.asarray(p.asphalt)
+        (brown if a[2] / a[0] < 0.75 else grey).append(_grey(tex["asphalt"]).mean())
         side_grey.append(_grey(tex["roadside"]).mean())
-    assert np.mean(road_grey) < 0.9  # warm aggregate shows through worn binder
+    assert len(brown) >= 2 and len(grey) >= 8
+    assert np.mean(brown) < 0.9  # brown aggregate shows through worn binder
+    assert min(grey) > 0.95  # grey stone: the texture's grain is lightness, not hue
     assert np.mean(side_grey) > 0.8  # concrete is as grey as any road
 
 
