@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from simroad.camera.mesh import MAX_VERTICES, Mesh
 
@@ -35,6 +34,20 @@ def outline(poly: np.ndarray, step: float = 2.0) -> np.ndarray:
     return np.vstack(out)
 
 
+#: The triangles of the six ``round`` canopies' convex hulls (vertex indices, as Qhull
+#: gives them for the points below; tests/camera/test_scenery_hulls.py checks that they
+#: are the hulls). Written out: the same faces in the same order whatever the Qhull
+#: build, and no SciPy import for every process that renders.
+_ROUND_HULLS = (
+    ((6, 3, 1), (5, 6, 3), (0, 1, 2), (0, 3, 1), (0, 5, 2), (0, 5, 3), (4, 1, 2), (4, 6, 1), (4, 5, 2), (4, 5, 6)),
+    ((6, 3, 1), (4, 2, 1), (4, 6, 1), (0, 2, 1), (0, 3, 1), (5, 6, 3), (5, 0, 2), (5, 0, 3), (5, 4, 2), (5, 4, 6)),
+    ((0, 3, 5), (1, 0, 3), (6, 4, 5), (6, 3, 5), (6, 1, 4), (6, 1, 3), (2, 4, 5), (2, 0, 5), (2, 1, 4), (2, 1, 0)),
+    ((1, 2, 4), (5, 2, 4), (0, 1, 3), (0, 1, 2), (0, 5, 3), (0, 5, 2), (6, 5, 3), (6, 5, 4), (6, 1, 3), (6, 1, 4)),
+    ((0, 5, 3), (6, 5, 4), (6, 5, 3), (1, 0, 3), (1, 6, 4), (1, 6, 3), (2, 5, 4), (2, 0, 5), (2, 1, 4), (2, 1, 0)),
+    ((1, 2, 4), (5, 2, 4), (0, 1, 3), (0, 1, 2), (0, 5, 3), (0, 5, 2), (6, 5, 3), (6, 5, 4), (6, 1, 3), (6, 1, 4)),
+)
+
+
 def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """Unit canopy polyhedra (vertices (V, 3), triangle/face index lists).
 
@@ -45,14 +58,15 @@ def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """
     rng = np.random.default_rng(20261201)
     out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"round": [], "cone": []}
-    for n in (7, 7, 7, 7, 7, 7):
+    for hull in _ROUND_HULLS:
+        n = 7
         golden = np.pi * (3.0 - math.sqrt(5.0))
         k = np.arange(n) + 0.5
         z = 1.0 - 2.0 * k / n
         r = np.sqrt(1.0 - z * z)
         phi = golden * np.arange(n) + rng.uniform(0, 2 * np.pi)
         v = np.column_stack([r * np.cos(phi), r * np.sin(phi), z]) * rng.uniform(0.85, 1.0, (n, 1))
-        out["round"].append((v, ConvexHull(v).simplices))
+        out["round"].append((v, np.array(hull, dtype=np.int32)))
     for _ in range(4):
         phi = np.sort(np.linspace(0, 2 * np.pi, 6, endpoint=False) + rng.uniform(-0.2, 0.2, 6))
         ring = np.column_stack([np.cos(phi), np.sin(phi), np.zeros(6)]) * rng.uniform(0.85, 1.0, (6, 1))
