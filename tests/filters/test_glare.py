@@ -45,9 +45,10 @@ def _display(y: np.ndarray) -> np.ndarray:
 
 def test_decode_inverts_the_sensors_response():
     from simroad.camera._sensor_ops import adc_response_lut
+    from simroad.core.radiometry import CAMERA_SHOULDER, CAMERA_TONE_GAMMA
 
     full = 2**12 - 1
-    table = adc_response_lut(12, 1.0, 1.0)  # the sensor's digital number -> 8-bit output
+    table = adc_response_lut(12, CAMERA_SHOULDER, CAMERA_TONE_GAMMA)  # digital number -> 8-bit output
     d = np.arange(0, full, 7)
     code = table[d].astype(np.int64)
     back = _decode(code.astype(np.float32) / 255.0, 1.0)

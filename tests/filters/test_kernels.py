@@ -276,19 +276,20 @@ def test_lit_diff_is_the_per_channel_computation():
 
 
 def test_camera_response_is_the_float32_formula():
-    from simroad.core.radiometry import GAMMA
+    from simroad.core.radiometry import CAMERA_TONE_GAMMA, GAMMA
     from simroad.filters._common import camera_to_linear, linear_to_camera
 
+    encode = CAMERA_TONE_GAMMA / GAMMA  # the camera's tone exponent, then the display encoding
     rng = np.random.default_rng(14)
     for shape in ((30, 40), (7,), (1, 256)):
         for k in (1.0, 0.0, 3.7):
             p = rng.random(shape, dtype=np.float32)
-            z = cv2.pow(p, GAMMA)
+            z = cv2.pow(p, 1.0 / encode)
             np.testing.assert_array_equal(camera_to_linear(p, k), z / (np.float32(1 + k) - np.float32(k) * z))
             y = (rng.random(shape) * 1.4 - 0.2).astype(np.float32)
             for gain in (None, np.float32(1.37)):
                 c = np.clip(y if gain is None else y * gain, 0.0, 1.0)
-                expect = cv2.pow(np.float32(1 + k) * c / (np.float32(1) + np.float32(k) * c), 1 / GAMMA)
+                expect = cv2.pow(np.float32(1 + k) * c / (np.float32(1) + np.float32(k) * c), encode)
                 np.testing.assert_array_equal(linear_to_camera(y, k, gain=gain), expect)
 
 

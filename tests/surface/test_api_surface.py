@@ -367,6 +367,8 @@ EXEMPT = {
     "ScenarioSpec": "a registry record built by simroad; users pick scenarios by name (get_scenario)",
     "GAMMA": "constant",
     "DECODE_TABLE": "constant",
+    "CAMERA_SHOULDER": "constant",
+    "CAMERA_TONE_GAMMA": "constant",
     "as_uint8": "a dtype conversion of a frame already checked by its caller",
     "MASK_THRESHOLD": "constant",
     "MODELS": "constant",
