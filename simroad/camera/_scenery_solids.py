@@ -58,8 +58,8 @@ def _canopy_templates() -> dict[str, list[tuple[np.ndarray, np.ndarray]]]:
     """
     rng = np.random.default_rng(20261201)
     out: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {"round": [], "cone": []}
+    n = 7  # points per round crown
     for hull in _ROUND_HULLS:
-        n = 7
         golden = np.pi * (3.0 - math.sqrt(5.0))
         k = np.arange(n) + 0.5
         z = 1.0 - 2.0 * k / n
