@@ -55,9 +55,7 @@ def white_balance_gains(
     blue: positive is a green cast).
     """
     illuminant_k = check_in_range("illuminant_k", illuminant_k, *CCT_RANGE_K, unit="K")
-    if error_mired == 0.0 and error_tint == 0.0 and (
-        params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k
-    ):
+    if error_mired == 0.0 and error_tint == 0.0 and (params.awb_strength == 1.0 or illuminant_k == params.wb_preset_k):
         return None
     balanced_for = mired_mix(params.wb_preset_k, illuminant_k, params.awb_strength)
     lo, hi = 1e6 / CCT_RANGE_K[1], 1e6 / CCT_RANGE_K[0]
