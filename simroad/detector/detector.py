@@ -38,7 +38,7 @@ from simroad.core.validation import (
 from simroad.detector.episode import DetectorEpisode, GlareMemory, _check_ground, _through_glare
 from simroad.detector.features import N_FEATURES, _features_f
 from simroad.detector.lut import ColourTable
-from simroad.detector.morphology import _ego_component, _fill_holes, extend_upward
+from simroad.detector.morphology import _ego_component, _ego_component_apart, _fill_holes, extend_upward
 from simroad.detector.persistence import check_model_destination, parse_model, read_arrays, write_model
 from simroad.detector.pixels import (
     MIN_IMAGE_SIZE,
@@ -47,6 +47,7 @@ from simroad.detector.pixels import (
     filtered_table_planes_masks,
     sample_pixels,
 )
+from simroad.detector.reference import NORMALIZATIONS, marking_mask, normalize_planes, normalize_rows
 from simroad.detector.svm import KernelExpansion
 from simroad.errors import InvalidParameterError, ModelFileError
 from simroad.filters.pipeline import check_filters, check_variant
@@ -114,7 +115,16 @@ class RoadDetector(BaseEstimator):
         Seed of the pixel sampling.
     filter_variant : {"improved", "paper"}, optional
         ``"paper"`` runs the filters as §III describes them, ``"improved"`` (default)
-        with the corrections measured in the README (see :func:`apply_filters`).
+        with the corrections measured in the README (see :func:`apply_filters`); its
+        morphology also keeps lane markings from bridging the road to a pale verge
+        (:mod:`simroad.detector.reference`).
+    normalize : {"none", "road_ahead"}, optional
+        ``"none"`` (default, §III): the SVM classifies absolute colours.
+        ``"road_ahead"``: every image (in ``fit`` and ``predict``, after the filters)
+        is first scaled per channel so that the road just ahead of the car comes out
+        at one grey (:func:`~simroad.detector.reference.road_ahead_gains`); the
+        classifier learns colours relative to the road under the car, whatever the
+        camera's exposure and white balance. The shipped model uses it.
 
     Attributes
     ----------
@@ -158,8 +168,10 @@ class RoadDetector(BaseEstimator):
         lut_bits: int = 6,
         random_state: int = 0,
         filter_variant: str = "improved",
+        normalize: str = "none",
     ) -> None:
         self.filters = filters
+        self.normalize = normalize
         self.filter_variant = filter_variant
         self.morphology = morphology
         self.C = C
@@ -193,7 +205,8 @@ class RoadDetector(BaseEstimator):
         rng = normalize_rng(self.random_state, name="random_state")
         imgs, msks = check_training_set(images, masks)
         variant = check_variant(self.filter_variant)
-        x, y = sample_pixels(imgs, msks, filters, n_max, rng, variant)
+        normalize = check_choice("normalize", self.normalize, NORMALIZATIONS)
+        x, y = sample_pixels(imgs, msks, filters, n_max, rng, variant, normalize)
         feats = _features_f(x)
         mean = feats.mean(axis=0)
         scale = feats.std(axis=0)
@@ -288,7 +301,8 @@ class RoadDetector(BaseEstimator):
         filters = check_filters(self.filters)
         variant = check_variant(self.filter_variant)
         exact = check_bool("exact", exact)
-        mask, acted = self._classify(image, filters, variant, exact)
+        normalize = check_choice("normalize", self.normalize, NORMALIZATIONS)
+        mask, acted, planes = self._classify(image, filters, variant, exact, normalize)
         if not check_bool("morphology", self.morphology):
             return mask, memory
         if variant != "improved":
@@ -297,17 +311,23 @@ class RoadDetector(BaseEstimator):
             mask &= ground  # nothing above the horizon is road, nor joins the road
         else:
             ground = None
-        mask = _ego_component(mask)
+        mask = _ego_component_apart(mask, marking_mask(planes))
         haze = acted.get("rain_snow")
         if haze is not None and haze.any():
-            mask = self._extend_through_haze(image, mask, filters, exact, ground)
+            mask = self._extend_through_haze(image, mask, filters, exact, normalize, ground)
         lobe = acted.get("light")
         if lobe is not None:
             mask, memory = _through_glare(image, mask, lobe, memory, ground)
         return _fill_holes(mask), memory
 
     def _extend_through_haze(
-        self, image: np.ndarray, mask: np.ndarray, filters: tuple[str, ...], exact: bool, ground: np.ndarray | None
+        self,
+        image: np.ndarray,
+        mask: np.ndarray,
+        filters: tuple[str, ...],
+        exact: bool,
+        normalize: str,
+        ground: np.ndarray | None,
     ) -> np.ndarray:
         """Not §III: the rain/snow filter extends the road upwards, and no further.
 
@@ -317,22 +337,26 @@ class RoadDetector(BaseEstimator):
         is kept only where it continues, upwards, the road found without it.
         """
         others = tuple(f for f in filters if f != "rain_snow")
-        ref = self._classify(image, others, "improved", exact)[0]
+        ref = self._classify(image, others, "improved", exact, normalize)[0]
         if ground is not None:
             ref &= ground
         ref = _fill_holes(_ego_component(ref)) & mask
         return extend_upward(mask, ref) if ref.any() else mask
 
     def _classify(
-        self, image: np.ndarray, filters: tuple[str, ...], variant: str, exact: bool
-    ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        """The per-pixel road mask of ``image`` after ``filters`` (the lookup table, or the
-        SVM at every pixel when ``exact``) and where each filter acted."""
+        self, image: np.ndarray, filters: tuple[str, ...], variant: str, exact: bool, normalize: str
+    ) -> tuple[np.ndarray, dict[str, np.ndarray], list[np.ndarray]]:
+        """The per-pixel road mask of ``image`` after ``filters`` and ``normalize`` (the
+        lookup table, or the SVM at every pixel when ``exact``), where each filter acted,
+        and the R, G, B planes that were classified."""
+        shape = image.shape[:2]
         if exact:
             rgb, acted = filtered_rgb_masks(image, filters, variant)
-            return self._decide_rgb(rgb).reshape(image.shape[:2]), acted
+            rgb = normalize_rows(rgb, shape, normalize, acted.get("light"))
+            return self._decide_rgb(rgb).reshape(shape), acted, [rgb[:, c].reshape(shape) for c in range(3)]
         planes, acted = filtered_table_planes_masks(image, filters, variant)
-        return self.lut_.lookup(planes), acted
+        planes = normalize_planes(planes, normalize, acted.get("light"))
+        return self.lut_.lookup(planes), acted, planes
 
     def episode(self, camera: Any = None) -> DetectorEpisode:
         """Start an episode: an object that predicts its frames in order and carries what

@@ -41,6 +41,25 @@ def _ego_component(mask: np.ndarray) -> np.ndarray:
     return labels == int(np.argmax(votes))
 
 
+def _ego_component_apart(mask: np.ndarray, marks: np.ndarray) -> np.ndarray:
+    """The ego's component of ``mask`` found without the pixels of ``marks`` (lane
+    markings, which would bridge the road to a pale verge), and the marked road pixels
+    that touch it (8-connected components of ``mask & marks``) added back. (Adding every
+    marking that touches the component, whatever the classifier called it, recovers
+    painted lines but also kerb faces and pale verge edges: on held-out worlds FNR
+    0.12 -> 0.08 for FPR 0.10 -> 0.18.)"""
+    core = _ego_component(mask & ~marks)
+    lines = mask & marks
+    if not lines.any():
+        return core
+    n, labels = cv2.connectedComponents(lines.view(np.uint8), connectivity=8)
+    near = cv2.dilate(core.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+    touching = np.zeros(n, bool)
+    touching[labels[near]] = True
+    touching[0] = False
+    return core | touching[labels]
+
+
 def _fill_holes(mask: np.ndarray) -> np.ndarray:
     # Background components (4-connected) that do not touch the border are holes. Framed
     # by a one-pixel ring of background, every component that touches the border joins

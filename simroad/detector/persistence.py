@@ -28,7 +28,7 @@ lut                 uint8     (2**(3 bits) / 8,)              bit-packed coarse 
 lut_refined_cells   int32     (n,)                            the coarse table's boundary cells
 lut_fine            uint8     (n * 2**(3 (8 - bits)) / 8,)    bit-packed fine table
 meta                str       ()                              JSON: format, version, params
-checksum            str       ()                              version 2 only
+checksum            str       ()                              versions 2 and 3
 ==================  ========  ==============================  =================================
 """
 
@@ -48,6 +48,7 @@ from simroad.core.validation import check_bool, check_choice, check_in_range, ch
 from simroad.detector._strict_npz import model_error, read_npz
 from simroad.detector.features import N_FEATURES
 from simroad.detector.lut import ColourTable
+from simroad.detector.reference import NORMALIZATIONS
 from simroad.detector.svm import KernelExpansion
 from simroad.errors import InvalidParameterError, SimroadError
 from simroad.filters.pipeline import FILTER_VARIANTS, FILTERS
@@ -69,16 +70,17 @@ __all__ = [
 
 FORMAT = "simroad.RoadDetector"
 #: Version written by :func:`write_model`.
-FORMAT_VERSION = 2
-#: Versions :func:`parse_model` reads (1: no checksum).
-READABLE_VERSIONS = (1, 2)
+FORMAT_VERSION = 3
+#: Versions :func:`parse_model` reads (1: no checksum; 1 and 2: no ``normalize``
+#: parameter, read as ``"none"``).
+READABLE_VERSIONS = (1, 2, 3)
 _CHECKSUM = "checksum"
 _ARRAYS_V1 = frozenset({"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "meta",
                         "lut", "lut_bits", "lut_refined_cells", "lut_fine"})  # fmt: skip
-_ARRAYS = {1: _ARRAYS_V1, 2: _ARRAYS_V1 | {_CHECKSUM}}
+_ARRAYS = {1: _ARRAYS_V1, 2: _ARRAYS_V1 | {_CHECKSUM}, 3: _ARRAYS_V1 | {_CHECKSUM}}
 #: The constructor parameters of :class:`~simroad.detector.RoadDetector`, all stored in a model file.
 PARAM_NAMES = frozenset({"filters", "filter_variant", "morphology", "C", "gamma", "max_samples", "nonroad_weight",
-                         "lut_bits", "random_state"})  # fmt: skip
+                         "lut_bits", "random_state", "normalize"})  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -166,6 +168,7 @@ def check_params(params: object) -> None:
     for f in filters:
         check_choice("filters", f, FILTERS)
     check_choice("filter_variant", params["filter_variant"], FILTER_VARIANTS)
+    check_choice("normalize", params["normalize"], NORMALIZATIONS)
     check_bool("morphology", params["morphology"])
     check_in_range("C", params["C"], 0.0, 1e6, low_inclusive=False)
     if params["gamma"] != "scale":
@@ -304,6 +307,8 @@ def parse_model(arrays: dict[str, np.ndarray], where: str) -> StoredModel:
                     "checksum mismatch: the arrays are not the ones that were saved (file modified or damaged)"
                 )
         params = dict(meta["params"])
+        if meta["version"] < 3:
+            params.setdefault("normalize", "none")  # before the parameter existed
         try:
             check_params(params)
         except SimroadError as exc:

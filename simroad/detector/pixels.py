@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from simroad.core.validation import IMAGE_DTYPES, check_image, check_mask, normalize_rng
+from simroad.detector.reference import normalize_rows
 from simroad.errors import InvalidParameterError
 from simroad.filters._common import planes_to_uint8, to_planes
 from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
@@ -68,17 +69,19 @@ def sample_pixels(
     n_max: int,
     rng: np.random.Generator | int,
     variant: str = "improved",
+    normalize: str = "none",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Balanced random pixels: up to ``n_max / (2 N)`` road and non-road pixels per image.
 
-    Returns the filtered colours (M, 3) float64 in [0, 1] and their labels (M,) int
+    Returns the filtered (and ``normalize``-d, :mod:`simroad.detector.reference`) colours (M, 3) float64 in [0, 1] and their labels (M,) int
     (1 = road).
     """
     rng = normalize_rng(rng)
     per = max(1, -(-n_max // (2 * len(images))))
     xs, ys = [], []
     for img, msk in zip(images, masks):
-        rgb = filtered_rgb(img, filters, variant)
+        rgb, acted = filtered_rgb_masks(img, filters, variant)
+        rgb = normalize_rows(rgb, img.shape[:2], normalize, acted.get("light"))
         flat = msk.ravel()
         for label in (False, True):
             idx = np.flatnonzero(flat == label)

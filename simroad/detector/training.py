@@ -9,7 +9,7 @@ import numpy as np
 from simroad.core.validation import normalize_rng
 from simroad.detector.detector import RoadDetector
 
-__all__ = ["SHIPPED_MAX_SAMPLES", "SHIPPED_NONROAD_WEIGHT", "train_default"]
+__all__ = ["SHIPPED_MAX_SAMPLES", "SHIPPED_NONROAD_WEIGHT", "SHIPPED_NORMALIZE", "train_default"]
 
 #: The shipped model's training settings (``simroad/data/road_detector.npz``, stored in
 #: it as its ``max_samples`` and ``nonroad_weight``): 16000 training pixels, and a
@@ -19,13 +19,18 @@ __all__ = ["SHIPPED_MAX_SAMPLES", "SHIPPED_NONROAD_WEIGHT", "train_default"]
 #: default ``nonroad_weight`` is 1.
 SHIPPED_MAX_SAMPLES = 16000
 SHIPPED_NONROAD_WEIGHT = 2.0
+#: The shipped model classifies colours relative to the road ahead
+#: (:mod:`simroad.detector.reference`): a camera's exposure and white balance move the
+#: same asphalt from V 0.12 to 0.42 between scenes, and pale verges fall inside that range.
+SHIPPED_NORMALIZE = "road_ahead"
 
 
 def train_default(
     images: Sequence[np.ndarray], masks: Sequence[np.ndarray], *, rng: np.random.Generator | int
 ) -> RoadDetector:
     """Train the default detector (no filters, morphology on) as shipped with simroad:
-    :data:`SHIPPED_MAX_SAMPLES` training pixels, non-road cost :data:`SHIPPED_NONROAD_WEIGHT`.
+    :data:`SHIPPED_MAX_SAMPLES` training pixels, non-road cost :data:`SHIPPED_NONROAD_WEIGHT`,
+    colours relative to the road ahead (:data:`SHIPPED_NORMALIZE`).
 
     Parameters
     ----------
@@ -46,5 +51,5 @@ def train_default(
     seed = int(rng.integers(0, 2**31 - 1))
     return RoadDetector(
         filters=(), morphology=True, max_samples=SHIPPED_MAX_SAMPLES, nonroad_weight=SHIPPED_NONROAD_WEIGHT,
-        random_state=seed,
+        normalize=SHIPPED_NORMALIZE, random_state=seed,
     ).fit(images, masks)  # fmt: skip

@@ -66,6 +66,7 @@ _AIR_MASS = (1.0, 38.0)  # sun overhead .. on the horizon (Kasten & Young)
 _MIN_WARM = 0.45  # the lobe's R - B lift (99th percentile) over the floor's level: a warm sun
 _MIN_CONCENTRATION = 0.33  # share of the lift's column profile within +-3/80 of the width of its peak
 _MIN_ROWS = 0.78  # share of the lit rows whose largest lift lies in that band
+_MIN_LIT = 0.5  # share of the searched rows that are lit: a lobe runs down the ground towards the camera
 _MIN_SYMMETRY = 0.3  # median ratio of the lift 5/80 of the width left and right of the peak (a bell, not a step)
 # The sun's reflections on flat ground lie in the vertical plane through the camera and
 # the sun: in the image, a line through the nadir, which for a camera pitched 5 degrees
@@ -106,7 +107,7 @@ def _find_lobe(least: np.ndarray, warm: np.ndarray, level: float, min_lift: floa
     row_max = least.max(axis=1)
     lit = row_max > 0.2 * float(row_max.max())
     band = least[:, max(0, c - half) : c + half + 1].max(axis=1)
-    if float((lit & (band >= 0.8 * row_max)).mean()) < _MIN_ROWS:
+    if float(lit.mean()) < _MIN_LIT or float((band >= 0.8 * row_max)[lit].mean()) < _MIN_ROWS:
         return None
     rows = least[lit]
     peaks = rows.argmax(axis=1)  # from the far rows to the near ones

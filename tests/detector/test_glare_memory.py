@@ -65,9 +65,9 @@ def test_without_the_improved_light_filter_nothing_is_remembered(frames, kwargs)
 
 @pytest.fixture(scope="module")
 def sun_down_the_lane(shared_frames):
-    """A winding-road frame whose glare lobe runs up to the horizon and meets the bright sky
-    without a step (before the bound, growth without a camera flooded 18,560 sky pixels)."""
-    fs = shared_frames(scenarios=("winding",), seeds=[0], frames_per_seed=1, noise="glare", severity=0.7, every=8)
+    """A winding-road frame whose glare lobe runs up towards the horizon and the bright sky:
+    without a bound, growth from the lobe would climb into the sky."""
+    fs = shared_frames(scenarios=("winding",), seeds=[3], frames_per_seed=1, noise="glare", severity=0.7, every=8)
     return fs.images[0], fs.valid[0]
 
 

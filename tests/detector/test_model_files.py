@@ -104,10 +104,29 @@ def load_fails(path: Path, match: str = "") -> SimroadError:
 
 
 # ---------------------------------------------------------------- whole files
-def test_the_shipped_model_is_format_2_with_a_valid_checksum():
+def test_the_shipped_model_is_format_3_with_a_valid_checksum():
     arrays = read_arrays(default_model_path())
-    assert json.loads(str(arrays["meta"]))["version"] == FORMAT_VERSION == 2
+    meta = json.loads(str(arrays["meta"]))
+    assert meta["version"] == FORMAT_VERSION == 3
+    assert meta["params"]["normalize"] == "road_ahead"
     assert str(arrays["checksum"]) == array_checksum(arrays)
+
+
+def _without_normalize(meta: dict, version: int) -> None:
+    meta["params"].pop("normalize")
+    meta["version"] = version
+
+
+def test_version_2_files_load_with_absolute_colours(model_arrays, tmp_path):
+    """Files written before ``normalize`` existed classified absolute colours."""
+    v2 = with_meta(dict(model_arrays), lambda m: _without_normalize(m, 2))
+    det = RoadDetector.load(write_arrays(tmp_path / "v2.npz", v2, reseal=True))
+    assert det.normalize == "none"
+
+
+def test_version_3_files_must_say_how_colours_are_normalised(model_arrays, tmp_path):
+    v3 = with_meta(dict(model_arrays), lambda m: _without_normalize(m, 3))
+    load_fails(write_arrays(tmp_path / "v3.npz", v3, reseal=True), "missing \\['normalize'\\]")
 
 
 def test_a_saved_model_loads_and_predicts_exactly_as_saved(shipped, model_bytes, tmp_path):
@@ -287,7 +306,7 @@ FORGED = {
     "param-random_state": (_params(random_state=-1), "stored random_state"),
     "param-unknown": (_params(colour="red"), r"stored params: .*unknown \['colour'\]"),
     "param-gamma": (_params(gamma="auto"), "stored gamma"),
-    "meta-version-3": (lambda a: with_meta(a, lambda m: m.update(version=3)), "format version 3"),
+    "meta-version-4": (lambda a: with_meta(a, lambda m: m.update(version=4)), "format version 4"),
     "meta-version-text": (lambda a: with_meta(a, lambda m: m.update(version="2")), "format version '2'"),
     "meta-format": (lambda a: with_meta(a, lambda m: m.update(format="other")), "format 'other'"),
     "meta-not-json": (_set("meta", np.array("{not json")), "Expecting property name"),

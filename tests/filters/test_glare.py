@@ -29,13 +29,14 @@ def _clean_signal() -> np.ndarray:
 
 def _glare_signal(peak: float) -> tuple[np.ndarray, np.ndarray]:
     """The clean signal plus an additive sun-coloured lobe on the ground (rows >= 90),
-    exposed as the camera's auto-exposure would meter it (same mean of rows 90..179)."""
+    exposed as the camera's auto-exposure would meter it (the same mean over the whole
+    frame, sky included, as ``remove_glare``'s default ``metering_top=0`` assumes)."""
     clean = _clean_signal()
     col = np.arange(W, dtype=np.float32)
     lobe = np.zeros((H, W), np.float32)
     lobe[90:] = peak * np.exp(-0.5 * ((col - 160.0) / 15.0) ** 2)[None, :]
     lit = clean + lobe[..., None] * SUN
-    exposure = clean[90:].mean() / lit[90:].mean()
+    exposure = clean.mean() / lit.mean()
     return lit * exposure, lobe
 
 
@@ -65,7 +66,9 @@ def test_decode_inverts_encode():
 
 def test_remove_glare_recovers_the_clean_frame_under_a_sun_coloured_lobe():
     clean = _display(_clean_signal())
-    lit, lobe = _glare_signal(peak=2.5)
+    # bright enough to move the whole frame's exposure, not so bright that the lobe's core
+    # clips over a wide band (a clipped core keeps no record of the light it took)
+    lit, lobe = _glare_signal(peak=1.5)
     img = _display(lit)
     out, mask = remove_glare(img)
     on = lobe > 0.02
@@ -74,7 +77,7 @@ def test_remove_glare_recovers_the_clean_frame_under_a_sun_coloured_lobe():
     assert np.abs(out - clean)[on].mean() < 0.35 * before  # quarter-resolution lobe: not exact
     # the road beside the lobe was darkened by the exposure; it comes back
     beside = (slice(100, 180), slice(20, 90))
-    assert np.abs(img[beside] - clean[beside]).mean() > 0.1
+    assert np.abs(img[beside] - clean[beside]).mean() > 0.04
     assert np.abs(out[beside] - clean[beside]).max() < 0.2 * np.abs(img[beside] - clean[beside]).mean()
     assert mask[120:, 160].all() and not mask[:80].any() and not mask[:, :20].any()
 

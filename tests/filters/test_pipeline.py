@@ -60,8 +60,9 @@ def test_the_improved_shadow_filter_balances_the_light_then_relights():
 def test_step_settings_default_to_the_public_functions_defaults():
     (haze,) = FILTER_REGISTRY["rain_snow"].steps("improved")
     defaults = {k: p.default for k, p in inspect.signature(remove_haze).parameters.items() if k != "image"}
-    assert haze.function is remove_haze and dict(haze.settings) == {"tolerance": 0.045}
-    assert dict(haze.options) == {**defaults, "tolerance": 0.045}
+    settings = {"tolerance": 0.02, "gamma": pytest.approx(2.2 / 1.6)}  # decoded with the camera's exponent
+    assert haze.function is remove_haze and dict(haze.settings) == settings
+    assert dict(haze.options) == {**defaults, **settings}
     (particles,) = FILTER_REGISTRY["rain_snow"].steps("paper")
     assert particles.function is remove_rain_snow and not particles.settings
     with pytest.raises(TypeError):

@@ -54,8 +54,10 @@ def test_shadowed_asphalt_is_darker_more_saturated_and_bluer(scene):
     # The same pixels, lit (input) and in shadow (output):
     v_0, s_0, br_0 = _hsv_stats(scene.frame.rgb, shade)
     # (aged asphalt is warm, R/G ~ G/B ~ 1.2: the blue skylight first cancels that tint,
-    # so the saturation gain over the lit input is smaller than over neutral grey)
-    assert v_s < 0.75 * v_0 and s_s > s_0 + 5 and br_s > 1.2 * br_0
+    # so the saturation gain over the lit input is smaller than over neutral grey; the
+    # camera's tone curve, display ~ linear ** (CAMERA_TONE_GAMMA / GAMMA) = 0.73, shows
+    # shade at 0.7 of the lit irradiance as 0.77 of its value)
+    assert v_s < 0.8 * v_0 and s_s > s_0 + 5 and br_s > 1.2 * br_0
 
 
 @pytest.fixture
