@@ -8,9 +8,8 @@ from typing import Any
 
 from simroad.cli import types as T
 from simroad.cli.commands import seed_range
-from simroad.cli.env_options import default_of, names
+from simroad.cli.env_options import add_worlds, default_of, names
 from simroad.cli.index import COMMANDS
-from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.experiments.calibrate import (
     calibrate_from_photos,
     calibrate_profile,
@@ -50,28 +49,11 @@ def add_calibrate(sub: Any) -> None:
     p.add_argument(
         "--out", type=T.output_file(lambda: (".toml",)), required=True, metavar="TOML", help="the profile to write"
     )
-    p.add_argument(
-        "--scenarios",
-        type=T.choice_list(SCENARIO_NAMES),
-        metavar="LIST",
-        default=tuple(d["scenarios"]),
-        help=f"comma-separated: {names(SCENARIO_NAMES)} (default: all)",
-    )
-    seeds = tuple(d["seeds"])
-    p.add_argument(
-        "--seeds",
-        type=T.int_in(1, 1000),
-        default=len(seeds),
-        help=f"worlds per scenario rendered at every evaluation (default: {len(seeds)}, the worlds "
-        f"{seeds[0]}-{seeds[-1]})",
-    )
-    p.add_argument("--seed-start", type=T.seed(), default=seeds[0], help=f"first world seed (default: {seeds[0]})")
-    p.add_argument(
-        "--frames",
-        type=T.int_in(1, 50),
-        default=d["frames"],
-        help=f"frames per scenario and world at every evaluation (default: {d['frames']})",
-    )
+    add_worlds(
+        p, d, max_seeds=1000, max_frames=50,
+        seeds_help="worlds per scenario rendered at every evaluation (default: {n}, the worlds {first}-{last})",
+        frames_help="frames per scenario and world at every evaluation",
+    )  # fmt: skip
     p.add_argument(
         "--max-evaluations",
         type=T.int_in(1, 10_000),

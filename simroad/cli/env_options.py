@@ -23,7 +23,7 @@ from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError, SimroadError
 from simroad.noise import WIPER_MODES, WindscreenParams
 
-__all__ = ["add_camera_profile", "add_env_options", "default_of", "env_options", "names"]
+__all__ = ["add_camera_profile", "add_env_options", "add_worlds", "default_of", "env_options", "names"]
 
 
 def default_of(owner: Callable[..., Any], name: str) -> Any:
@@ -40,6 +40,33 @@ def default_of(owner: Callable[..., Any], name: str) -> Any:
 def names(values: Sequence[object]) -> str:
     """``values`` comma-joined, for help texts."""
     return ", ".join(str(v) for v in values)
+
+
+def add_worlds(
+    p: argparse.ArgumentParser, d: dict[str, Any], *, max_seeds: int, max_frames: int, seeds_help: str, frames_help: str
+) -> None:
+    """``--scenarios``, ``--seeds``, ``--seed-start`` and ``--frames``: which clear worlds a
+    command renders, with the defaults ``d`` (``scenarios``, ``seeds``, ``frames``) of its
+    function. ``seeds_help`` is formatted with ``n``, ``first`` and ``last`` (the default
+    worlds); ``frames_help`` is the help of ``--frames`` before its default."""
+    p.add_argument(
+        "--scenarios",
+        type=T.choice_list(SCENARIO_NAMES),
+        metavar="LIST",
+        default=tuple(d["scenarios"]),
+        help=f"comma-separated: {names(SCENARIO_NAMES)} (default: all)",
+    )
+    seeds = tuple(d["seeds"])
+    p.add_argument(
+        "--seeds",
+        type=T.int_in(1, max_seeds),
+        default=len(seeds),
+        help=seeds_help.format(n=len(seeds), first=seeds[0], last=seeds[-1]),
+    )
+    p.add_argument("--seed-start", type=T.seed(), default=seeds[0], help=f"first world seed (default: {seeds[0]})")
+    p.add_argument(
+        "--frames", type=T.int_in(1, max_frames), default=d["frames"], help=f"{frames_help} (default: {d['frames']})"
+    )
 
 
 def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) -> None:

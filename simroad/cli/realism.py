@@ -8,9 +8,8 @@ from typing import Any
 
 from simroad.cli import types as T
 from simroad.cli.commands import seed_range
-from simroad.cli.env_options import add_camera_profile, default_of, names
+from simroad.cli.env_options import add_camera_profile, add_worlds, default_of
 from simroad.cli.index import COMMANDS
-from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError
 from simroad.experiments.realism import (
     format_realism_table,
@@ -41,27 +40,11 @@ def add_realism(sub: Any) -> None:
         "OUT/realism.json (the table) and OUT/realism.png (the CDFs). The exit status is 0 whatever the "
         "distances; 2 on bad input.",
     )
-    p.add_argument(
-        "--scenarios",
-        type=T.choice_list(SCENARIO_NAMES),
-        metavar="LIST",
-        default=tuple(d["scenarios"]),
-        help=f"comma-separated: {names(SCENARIO_NAMES)} (default: all)",
-    )
-    seeds = tuple(d["seeds"])
-    p.add_argument(
-        "--seeds",
-        type=T.int_in(1, 100_000),
-        default=len(seeds),
-        help=f"number of worlds (default: {len(seeds)}, the worlds {seeds[0]}-{seeds[-1]}, which no tuning has used)",
-    )
-    p.add_argument("--seed-start", type=T.seed(), default=seeds[0], help=f"first world seed (default: {seeds[0]})")
-    p.add_argument(
-        "--frames",
-        type=T.int_in(1, 1000),
-        default=d["frames"],
-        help=f"frames per scenario and seed (default: {d['frames']})",
-    )
+    add_worlds(
+        p, d, max_seeds=100_000, max_frames=1000,
+        seeds_help="number of worlds (default: {n}, the worlds {first}-{last}, which no tuning has used)",
+        frames_help="frames per scenario and seed",
+    )  # fmt: skip
     p.add_argument(
         "--every",
         type=T.int_in(1, 1000),

@@ -48,7 +48,7 @@ from simroad.experiments.profile_space import (
     to_unit,
     unit_coordinates,
 )
-from simroad.experiments.realism import photo_statistics
+from simroad.experiments.realism import check_env_options, photo_statistics
 from simroad.metrics.appearance import STATISTICS, frame_appearance
 
 __all__ = [
@@ -239,7 +239,10 @@ def calibrate_profile(
     max_evaluations = check_int_in_range("max_evaluations", max_evaluations, 1, 10_000)
     start = _check_start(start)
     names = check_fit(fit)
-    options = _check_env_options(env_options)
+    options = check_env_options(
+        env_options, ("scenario", "noise", "severity", "camera_profile"),
+        "set by the calibration (clear frames of its scenarios with the profile it tries); drop them.",
+    )  # fmt: skip
     calibration_objective({}, ref)  # refuses a reference without values before any rendering
     coords = unit_coordinates(names)
     seen: dict[bytes, tuple[float, dict[str, np.ndarray]]] = {}
@@ -300,22 +303,6 @@ def _check_start(start: Any) -> CameraProfile:
     if not isinstance(start, CameraProfile):
         raise InvalidParameterError(f"start: expected a CameraProfile or None, got {type(start).__name__}.")
     return start
-
-
-def _check_env_options(env_options: Any) -> dict:
-    if env_options is None:
-        return {}
-    if not isinstance(env_options, Mapping):
-        raise InvalidParameterError(
-            f"env_options: expected a dict of RoadCam options, got {type(env_options).__name__}."
-        )
-    own = [k for k in ("scenario", "noise", "severity", "camera_profile") if k in env_options]
-    if own:
-        raise InvalidParameterError(
-            f"env_options: {', '.join(own)} {'is' if len(own) == 1 else 'are'} set by the calibration "
-            "(clear frames of its scenarios with the profile it tries); drop them."
-        )
-    return dict(env_options)
 
 
 def calibrate_from_photos(photos: str | os.PathLike, masks: str | os.PathLike, **options: Any) -> CalibrationResult:

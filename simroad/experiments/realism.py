@@ -47,6 +47,7 @@ __all__ = [
     "FRAME_EVERY",
     "REALISM_SEEDS",
     "RealismReport",
+    "check_env_options",
     "format_realism_table",
     "photo_reference",
     "photo_statistics",
@@ -151,19 +152,18 @@ class RealismReport:
         ]
 
 
-def _check_env_options(env_options: Any) -> dict:
+def check_env_options(env_options: Any, reserved: Sequence[str], why: str) -> dict:
+    """``env_options`` (None or a mapping of RoadCam options) as a new dict; refuses the
+    ``reserved`` keys, which the caller sets itself (``why`` says how, and what to do)."""
     if env_options is None:
         return {}
     if not isinstance(env_options, Mapping):
         raise InvalidParameterError(
             f"env_options: expected a dict of RoadCam options, got {type(env_options).__name__}."
         )
-    own = [k for k in _OWN_KEYS if k in env_options]
+    own = [k for k in reserved if k in env_options]
     if own:
-        raise InvalidParameterError(
-            f"env_options: {', '.join(own)} {'is' if len(own) == 1 else 'are'} set by the report (clear frames of "
-            "each of its scenarios); drop them and pass the scenarios as scenarios=."
-        )
+        raise InvalidParameterError(f"env_options: {', '.join(own)} {'is' if len(own) == 1 else 'are'} {why}")
     return dict(env_options)
 
 
@@ -219,7 +219,10 @@ def realism_report(
     scenarios, worlds = check_frame_protocol(scenarios=scenarios, seeds=seeds, noise="clear", severity=0.0)
     frames = check_int_in_range("frames", frames, 1, 1000)
     every = check_int_in_range("every", every, 1, 1000)
-    options = _check_env_options(env_options)
+    options = check_env_options(
+        env_options, _OWN_KEYS,
+        "set by the report (clear frames of each of its scenarios); drop them and pass the scenarios as scenarios=.",
+    )  # fmt: skip
     ref = _reference(reference)
     kept: list[tuple[str, int, int]] = []
     skipped: list[tuple[str, int, int]] = []
