@@ -47,7 +47,8 @@ from simroad.detector import DetectorEpisode, RoadDetector, train_default
 from simroad.detector.features import _features_f
 from simroad.detector.growth import GROW_TOLERANCE, grow_road
 from simroad.detector.morphology import _ego_component, _fill_holes
-from simroad.detector.pixels import filtered_rgb
+from simroad.detector.pixels import filtered_rgb_masks
+from simroad.detector.reference import normalize_rows
 from simroad.filters import (
     FILTER_REGISTRY,
     FILTERS,
@@ -104,10 +105,13 @@ def _frames(seed: int, n: int, size: tuple[int, int] = (320, 180)):
 
 
 def _literal(det: RoadDetector):
-    """The paper's pipeline: filters, features of every pixel, SVC.predict, morphology."""
+    """The paper's pipeline: filters, features of every pixel, SVC.predict, morphology
+    (with the detector's colour reference, as its table was built)."""
 
     def predict(image: np.ndarray) -> np.ndarray:
-        z = (_features_f(filtered_rgb(image, FILTERS)) - det.feature_mean_) / det.feature_scale_
+        rgb, acted = filtered_rgb_masks(image, FILTERS)
+        rgb = normalize_rows(rgb, image.shape[:2], det.normalize, acted.get("light"))
+        z = (_features_f(rgb) - det.feature_mean_) / det.feature_scale_
         mask = det.svc_.predict(z).astype(bool).reshape(image.shape[:2])
         return _fill_holes(_ego_component(mask))
 

@@ -77,7 +77,8 @@ READABLE_VERSIONS = (1, 2, 3)
 _CHECKSUM = "checksum"
 _ARRAYS_V1 = frozenset({"support_vectors", "dual_coef", "intercept", "gamma", "feature_mean", "feature_scale", "meta",
                         "lut", "lut_bits", "lut_refined_cells", "lut_fine"})  # fmt: skip
-_ARRAYS = {1: _ARRAYS_V1, 2: _ARRAYS_V1 | {_CHECKSUM}, 3: _ARRAYS_V1 | {_CHECKSUM}}
+_ARRAYS_V2 = _ARRAYS_V1 | {_CHECKSUM}
+_ARRAYS = {1: _ARRAYS_V1, 2: _ARRAYS_V2, 3: _ARRAYS_V2}  # 3 differs from 2 in its parameters only
 #: The constructor parameters of :class:`~simroad.detector.RoadDetector`, all stored in a model file.
 PARAM_NAMES = frozenset({"filters", "filter_variant", "morphology", "C", "gamma", "max_samples", "nonroad_weight",
                          "lut_bits", "random_state", "normalize"})  # fmt: skip

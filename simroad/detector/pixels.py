@@ -15,7 +15,6 @@ from simroad.filters.pipeline import _filter_planes_masks, filter_planes_masks
 __all__ = [
     "MIN_IMAGE_SIZE",
     "check_training_set",
-    "filtered_rgb",
     "filtered_rgb_masks",
     "filtered_table_planes_masks",
     "filtered_uint8_planes",
@@ -99,15 +98,11 @@ def sample_pixels(
     return x, y
 
 
-def filtered_rgb(image: np.ndarray, filters: tuple[str, ...], variant: str = "improved") -> np.ndarray:
-    """Filtered colours of every pixel as (H * W, 3) float64 rows in [0, 1]."""
-    return filtered_rgb_masks(image, filters, variant)[0]
-
-
 def filtered_rgb_masks(
     image: np.ndarray, filters: tuple[str, ...], variant: str = "improved"
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-    """:func:`filtered_rgb`, and each filter's mask (where it acted; see :func:`filter_planes_masks`)."""
+    """Filtered colours of every pixel as (H * W, 3) float64 rows in [0, 1], and each
+    filter's mask (where it acted; see :func:`filter_planes_masks`)."""
     if filters:
         planes, masks = filter_planes_masks(to_planes(image), filters, variant)
         return np.stack([p.ravel() for p in planes], axis=1).astype(np.float64), masks
