@@ -7,6 +7,7 @@ encoded frame, the auto-exposure's update, and the decoding of the rendered fram
 
 from __future__ import annotations
 
+import functools
 import math
 
 import cv2
@@ -20,7 +21,9 @@ from simroad.core.validation import check_in_range
 __all__ = [
     "OVER_RANGE",
     "SENSOR_DECODE",
+    "ProcessingScratch",
     "auto_exposure_update",
+    "half_resolution",
     "metered_mean",
     "process_chroma",
     "white_balance_gains",
@@ -68,6 +71,9 @@ def white_balance_gains(
 
 def metered_mean(out: np.ndarray, top: int = 0) -> float:
     """Centre-weighted mean (0-1) of the encoded frame ``out`` from row ``top`` down.
+    ``out`` may be the frame at any resolution (a cell is a share of the window): the
+    sensor meters the frame at half resolution (:func:`half_resolution`), 4x fewer
+    pixels for the same cells.
 
     The frame is averaged over a 16 x 9 grid of cells and the cells weighted by a
     Gaussian of the distance from the centre of the metering window (standard
@@ -114,27 +120,93 @@ def auto_exposure_update(
     return float(min(max(ev + step, params.ev_min), params.ev_max))  # np.clip's value, without its overhead
 
 
-def process_chroma(out: np.ndarray, factor: float, denoise_px: float = 0.0) -> None:
+def process_chroma(
+    out: np.ndarray,
+    factor: float,
+    denoise_px: float = 0.0,
+    *,
+    scratch: ProcessingScratch | None = None,
+    half_ready: bool = False,
+) -> None:
     """The chroma stage of a camera's processing, on the encoded frame ``out`` (uint8
-    RGB, in place): the chroma ``c - Y`` about the luma (Rec. 601 weights) is smoothed
-    by a Gaussian of ``denoise_px`` pixels (none at 0) and scaled by ``factor``:
-    ``Y + factor * G(c - Y)``, saturating at 0 and 255.
+    RGB, in place): the luma Y (Rec. 601) is kept; the chroma (Cr, Cb) is scaled by
+    ``factor`` about neutral and, when ``denoise_px`` > 0, smoothed to a Gaussian of
+    about ``denoise_px`` pixels at half resolution (4:2:0), saturating at 0 and 255.
 
     Every camera's processor reduces chroma noise far more than luma noise (the eye
-    is blind to fine colour detail; video codecs then keep chroma at half resolution,
-    4:2:0): a grey road comes out grey, not speckled with colour. Consumer and
-    automotive cameras then render colours 10-40 % more saturated than colorimetric
-    (a "preferred" reproduction).
+    is blind to fine colour detail) and video keeps chroma at half resolution (4:2:0):
+    a grey road comes out grey, not speckled with colour. Consumer and automotive
+    cameras then render colours 10-40 % more saturated than colorimetric (a
+    "preferred" reproduction).
+
+    With ``denoise_px`` > 0 the chroma is averaged over 2 x 2 pixels, smoothed at half
+    resolution and brought back bilinearly; the box and the bilinear tent already
+    spread it by about ``_SUBSAMPLING_VAR_PX2`` (variance, full-resolution pixels), so
+    the half-resolution Gaussian makes up the rest of ``denoise_px ** 2``. All on
+    OpenCV's fixed-point 8-bit paths: a quarter of the pixels, 4-5x faster than
+    smoothing the full-resolution chroma in float. ``scratch`` (of ``out``'s size) holds
+    the intermediate planes across frames (fresh ones when None): a frame's worth of
+    new memory per call costs as much again as the arithmetic. ``half_ready``: its
+    ``half`` holds ``out`` averaged over 2 x 2 pixels already (:func:`half_resolution`).
     """
-    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
-    if denoise_px > 0.0:
-        chroma = out.astype(np.float32)
-        chroma -= grey[:, :, None]
-        cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
-        chroma *= np.float32(factor)
-        chroma += grey[:, :, None]
-        np.clip(chroma, 0.0, 255.0, out=chroma)
-        np.rint(chroma, out=chroma)
-        out[...] = chroma
+    if denoise_px <= 0.0:
+        grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
+        cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
         return
-    cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
+    h, w = out.shape[:2]
+    if scratch is None or scratch.shape != (h, w):
+        scratch = ProcessingScratch(h, w)
+    luma, half, full = scratch.luma, scratch.half, scratch.full
+    cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=luma)
+    if not half_ready:
+        half_resolution(out, half)
+    cv2.cvtColor(half, cv2.COLOR_RGB2YCrCb, dst=half)
+    sigma = math.sqrt(max(denoise_px * denoise_px - _SUBSAMPLING_VAR_PX2, 0.0)) / 2.0
+    kernel = _chroma_kernel(round(sigma, 3))
+    # One pass smooths and scales: the kernel sums to ``factor``, neutral (128) stays.
+    cv2.sepFilter2D(
+        half,
+        -1,
+        kernel,
+        kernel * np.float32(factor),
+        dst=half,
+        delta=128.0 * (1.0 - float(factor)),
+        borderType=cv2.BORDER_REFLECT,
+    )
+    cv2.resize(half, (w, h), dst=full, interpolation=cv2.INTER_LINEAR)
+    cv2.mixChannels([luma], [full], [0, 0])  # channel 0 (the smoothed luma) back to the frame's
+    cv2.cvtColor(full, cv2.COLOR_YCrCb2RGB, dst=out)
+
+
+def half_resolution(frame: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """``frame`` averaged over 2 x 2 pixels into ``dst`` (``((H + 1) // 2, (W + 1) // 2)``,
+    its dtype): the statistics grid of an ISP and the 4:2:0 chroma's resolution."""
+    return cv2.resize(frame, dst.shape[1::-1], dst=dst, interpolation=cv2.INTER_AREA)
+
+
+class ProcessingScratch:
+    """The camera processing's planes for frames of ``height`` x ``width`` (uint8): the
+    luma, the frame at half resolution (the meter's statistics, then the chroma's
+    YCrCb) and the full-resolution YCrCb."""
+
+    def __init__(self, height: int, width: int) -> None:
+        self.shape = (int(height), int(width))
+        self.luma = np.empty(self.shape, np.uint8)
+        self.half = np.empty(((self.shape[0] + 1) // 2, (self.shape[1] + 1) // 2, 3), np.uint8)
+        self.full = np.empty((*self.shape, 3), np.uint8)
+
+
+#: Variance (full-resolution pixels squared) the 2 x 2 box and the bilinear
+#: upsampling's tent add to the chroma: 1/4 + 2/3.
+_SUBSAMPLING_VAR_PX2 = 0.25 + 2.0 / 3.0
+
+
+@functools.lru_cache(maxsize=16)
+def _chroma_kernel(sigma: float) -> np.ndarray:
+    """A normalised 1-D Gaussian of ``sigma`` half-resolution pixels (3 sigma each
+    side; the single tap 1 below a tenth of a pixel)."""
+    if sigma < 0.1:
+        return np.ones((1, 1), np.float32)
+    k = cv2.getGaussianKernel(2 * math.ceil(3.0 * sigma) + 1, sigma).astype(np.float32)
+    k.flags.writeable = False
+    return k
