@@ -14,6 +14,7 @@ blur runs on linear radiance (16 bit), as the light adds up on the sensor.
 from __future__ import annotations
 
 import functools
+import threading
 
 import cv2
 import numpy as np
@@ -147,7 +148,8 @@ def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.
     ``g + t * shift``, ``t`` in [0, 1], per texel ``g``, on linear radiance (border
     replicated): one ``cv2.filter2D`` with :func:`segment_kernel`, on 16-bit linear
     values. Returns uint8 (h, w, 4), the colour blurred (four channels: OpenCV warps
-    them faster than three; the 4th is not meaningful).
+    them faster than three; the 4th is not meaningful); for a small kernel a view of
+    this thread's scratch, which the next call overwrites.
 
     A small kernel runs on the 16-bit values held in float32: OpenCV's direct filter
     sums the taps in float32 for a 16-bit image as for a float32 one (the same
@@ -156,16 +158,31 @@ def box_blur_texture(rgba: np.ndarray, shift_texels: tuple[float, float]) -> np.
     times faster."""
     to_linear, to_srgb = _tables()
     kernel, anchor = segment_kernel(shift_texels)
-    encoded = np.empty(rgba.shape, np.uint8)
     if kernel.size < _DFT_TAPS_16U:
-        lin = cv2.LUT(rgba, _linear_f32())
-        out = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
+        lin, out, encoded = _scratch(rgba.shape)
+        cv2.LUT(rgba, _linear_f32(), dst=lin)
+        cv2.filter2D(lin, -1, kernel, dst=out, anchor=anchor, borderType=cv2.BORDER_REPLICATE)
         decode_rounded(out, to_srgb, encoded)
         return encoded
+    encoded = np.empty(rgba.shape, np.uint8)
     lin = cv2.LUT(rgba, to_linear)
     out16: np.ndarray = cv2.filter2D(lin, -1, kernel, anchor=anchor, borderType=cv2.BORDER_REPLICATE)  # uint16
     decode(out16, to_srgb, encoded)  # np.take(to_srgb, out16), without its index conversion
     return encoded
+
+
+_SCRATCH = threading.local()
+
+
+def _scratch(shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """This thread's buffers for one blur of ``shape`` (the float32 linear crop, its
+    filtered copy, the uint8 result): views of arrays that grow to the largest crop
+    seen. A crop's worth of new memory per frame cost as much as the filter."""
+    n = int(np.prod(shape))
+    bufs = getattr(_SCRATCH, "bufs", None)
+    if bufs is None or bufs[0].size < n:
+        bufs = _SCRATCH.bufs = (np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.uint8))
+    return tuple(b[:n].reshape(shape) for b in bufs)  # type: ignore[return-value]
 
 
 @functools.cache
