@@ -165,6 +165,7 @@ class CameraRenderer:
         eg = np.nan_to_num(camera._ego_ground, nan=0.0)
         self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
         self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
+        self._band = np.empty((c.height - self._r0, c.width, 4), np.uint8)  # scratch: a warped band of colour
         # The sky the road reflects, times the world's gloss (nothing to add without gloss).
         gloss = self.world.palette.sheen
         self._sheen = _sheen.sheen_levels(_sheen.sheen_map(camera, self.sky, self._r0), gloss) if gloss > 0 else None
@@ -283,10 +284,15 @@ class CameraRenderer:
                         win.level(level),
                         Ma,
                         (c.width, hi - lo),
+                        dst=self._band_rows(hi - lo),
                         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                         borderMode=cv2.BORDER_REPLICATE,
                     )
                     cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
+
+    def _band_rows(self, rows: int) -> np.ndarray:
+        """Scratch for ``rows`` rows of a warped band (uint8 RGBA, the frame's width)."""
+        return self._band[:rows]
 
     # ------------------------------------------------------- motion blur
     def _ground_blur(self, motion_m: float) -> tuple[int, np.ndarray] | None:
@@ -323,7 +329,12 @@ class CameraRenderer:
         crop = _ground_blur.box_blur_texture(src[y0:y1, x0:x1], shift)
         offset = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
         band = cv2.warpPerspective(
-            crop, offset @ Ma, (w, h), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE
+            crop,
+            offset @ Ma,
+            (w, h),
+            dst=self._band_rows(h),
+            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REPLICATE,
         )
         cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
 
