@@ -33,17 +33,19 @@ from simroad.camera.profile import CameraProfile
 from simroad.envs import SCENARIO_NAMES
 from simroad.experiments.calibrate import calibrate_from_photos, format_calibration, ks_distances, write_calibration
 from simroad.experiments.frames import collect_frames
+from simroad.experiments.pool import default_workers, run_in_workers
 from simroad.metrics.appearance import STATISTICS, frame_appearance
 
 TRUTH = CameraProfile(exposure_bias_ev=0.8, wb_preset_k=4200.0, tone_gamma=1.3, asphalt_scale=1.4)
 BAR = 0.15
 
 
-def one_frame_per_world(profile: CameraProfile, seeds: range) -> tuple[list, list, dict[str, np.ndarray]]:
+def _world_frames(item: tuple[CameraProfile, int]) -> tuple[int, list, list, list]:
     """The second frame (five policy steps in, the exposure settled) of every scenario
-    in every world; images, masks and statistics (frames without road left out)."""
+    in world ``seed``: the seed, images, masks and statistics (frames without road left out)."""
+    profile, seed = item
     fs = collect_frames(
-        scenarios=SCENARIO_NAMES, seeds=seeds, frames_per_seed=2, every=5, env_options={"camera_profile": profile}
+        scenarios=SCENARIO_NAMES, seeds=(seed,), frames_per_seed=2, every=5, env_options={"camera_profile": profile}
     )
     images, masks, rows = [], [], []
     for rgb, road, src in zip(fs.images, fs.masks, fs.source):
@@ -52,6 +54,22 @@ def one_frame_per_world(profile: CameraProfile, seeds: range) -> tuple[list, lis
             images.append(rgb)
             masks.append(road)
             rows.append(stats)
+    return seed, images, masks, rows
+
+
+def one_frame_per_world(profile: CameraProfile, seeds: range) -> tuple[list, list, dict[str, np.ndarray]]:
+    """:func:`_world_frames` of every seed, on every core, in seed order (the env's own
+    frames: the check renders real episodes, not replays)."""
+    done = {
+        seed: rest
+        for seed, *rest in run_in_workers([(profile, int(s)) for s in seeds], default_workers(), _world_frames)
+    }
+    images, masks, rows = [], [], []
+    for seed in sorted(done):
+        a, b, c = done[seed]
+        images += a
+        masks += b
+        rows += c
     return images, masks, {s: np.array([r[s] for r in rows]) for s in STATISTICS}
 
 
@@ -59,9 +77,10 @@ def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--photo-worlds", type=int, default=50, help="worlds per scenario for the photos (default 50)")
     p.add_argument("--check-worlds", type=int, default=50, help="worlds per scenario for the check (default 50)")
-    p.add_argument("--fit-seeds", type=int, default=3, help="worlds per scenario per evaluation (default 3)")
-    p.add_argument("--fit-frames", type=int, default=3, help="frames per world per evaluation (default 3)")
-    p.add_argument("--max-evaluations", type=int, default=60)
+    p.add_argument("--fit-seeds", type=int, default=50, help="worlds per scenario per evaluation (default 50)")
+    p.add_argument("--fit-frames", type=int, default=1, help="frames per world per evaluation (default 1)")
+    p.add_argument("--max-evaluations", type=int, default=24, help="renders of the fit's worlds at most")
+    p.add_argument("--max-replays", type=int, default=800, help="profiles scored from recorded renders at most")
     p.add_argument("--fit", default="exposure_bias_ev,wb_preset_k,tone_gamma,asphalt_scale")
     p.add_argument("--out", type=Path, default=Path("runs/calibration-check"))
     p.add_argument(
@@ -88,6 +107,7 @@ def main(argv: list[str]) -> int:
             seeds=range(6000, 6000 + args.fit_seeds),
             frames=args.fit_frames,
             max_evaluations=args.max_evaluations,
+            max_replays=args.max_replays,
             progress=True,
         )
         timings["fit_s"] = time.perf_counter() - t0
@@ -109,7 +129,10 @@ def main(argv: list[str]) -> int:
               for f in result.fitted}  # fmt: skip
     for f, v in fields.items():
         print(f"{f:<20} true {v['true']!s:>10}  default {v['default']!s:>10}  fitted {v['fitted']!s:>10}")
-    print(f"objective {result.start_objective:.3f} -> {result.objective:.3f}; {result.evaluations} evaluations")
+    print(
+        f"objective {result.start_objective:.3f} -> {result.objective:.3f}; "
+        f"{result.evaluations} evaluations, {result.renders} renders"
+    )
     print("timings (s): " + ", ".join(f"{k} {v:.0f}" for k, v in timings.items()))
     print("PASS" if passed else "FAIL", f"(every statistic's KS <= {BAR})")
     summary = {
@@ -118,6 +141,7 @@ def main(argv: list[str]) -> int:
         "fields": fields,
         "objective": [result.start_objective, result.objective],
         "evaluations": result.evaluations,
+        "renders": result.renders,
         "frames_per_evaluation": result.frames,
         "timings_s": timings,
         "passed": passed,

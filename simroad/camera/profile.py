@@ -38,7 +38,15 @@ from simroad.core.radiometry import CAMERA_SHOULDER, CAMERA_TONE_GAMMA
 from simroad.core.validation import check_fields_in_range, check_in_range, check_input_file
 from simroad.errors import InvalidParameterError
 
-__all__ = ["PROFILE_RANGES", "CameraProfile", "load_profile", "profile_from_dict", "resolve_profile", "save_profile"]
+__all__ = [
+    "CAMERA_FIELDS",
+    "PROFILE_RANGES",
+    "CameraProfile",
+    "load_profile",
+    "profile_from_dict",
+    "resolve_profile",
+    "save_profile",
+]
 
 #: Each scalar field's valid range: (low, high, unit).
 PROFILE_RANGES: dict[str, tuple[float, float, str]] = {
@@ -108,6 +116,19 @@ class CameraProfile:
 
 
 _FIELDS = tuple(f.name for f in dataclasses.fields(CameraProfile))
+#: The fields that act in the camera's sensor alone (:meth:`SensorParams.with_profile
+#: <simroad.camera.sensor_params.SensorParams.with_profile>`), after the renderer; the
+#: others (daylight, asphalt) change the world that is rendered.
+CAMERA_FIELDS = (
+    "exposure_bias_ev",
+    "exposure_spread_ev",
+    "wb_preset_k",
+    "awb_strength",
+    "tone_gamma",
+    "tone_shoulder",
+    "saturation",
+    "full_well_e",
+)
 
 
 def _hint(key: str) -> str:

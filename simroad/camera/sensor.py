@@ -55,7 +55,7 @@ from simroad.core.radiometry import GAMMA, srgb_to_linear
 from simroad.core.validation import normalize_rng
 from simroad.errors import InvalidParameterError
 
-__all__ = ["Sensor", "apply_sensor", "settle_exposure"]
+__all__ = ["Sensor", "apply_sensor", "exposure_travel_m", "settle_exposure"]
 
 
 def settle_exposure(
@@ -78,6 +78,14 @@ def settle_exposure(
         _, measured = apply_sensor(rgb, quiet, camera, _NO_DRAWS, ev=mid, white_balance=white_balance)
         lo, hi = (mid, hi) if measured < goal else (lo, mid)
     return 0.5 * (lo + hi)
+
+
+def exposure_travel_m(params: SensorParams, speed_m_s: float, ev: float) -> float:
+    """Distance (m) a camera moving at ``speed_m_s`` covers during an exposure at ``ev``
+    (0 without motion blur): what the renderer blurs the ground by."""
+    if not params.motion_blur:
+        return 0.0
+    return abs(float(speed_m_s)) * params.exposure_time_s * 2.0**ev
 
 
 def apply_sensor(
@@ -147,7 +155,7 @@ def apply_sensor(
     frame = np.ascontiguousarray(rgb)
     blurred: tuple[np.ndarray, np.ndarray] = _NOT_BLURRED
     if params.motion_blur:
-        travel = abs(float(speed_m_s)) * params.exposure_time_s * gain
+        travel = exposure_travel_m(params, speed_m_s, ev)
         if travel > 0.0:
             d = np.ascontiguousarray(camera.depth if depth is None else depth, np.float32)
             lin = work if work is not None and work.shape == rgb.shape else np.empty(rgb.shape, np.float32)
@@ -292,10 +300,8 @@ class Sensor:
     def travel_m(self, speed_m_s: float) -> float:
         """Distance (m) the camera covers during the next frame's exposure at
         ``speed_m_s``: what the renderer blurs the ground by (0 without motion blur)."""
-        if not self.params.motion_blur:
-            return 0.0
         # Before the first frame the exposure is not settled yet: the nominal one.
-        return abs(float(speed_m_s)) * self.params.exposure_time_s * 2.0**self.ev
+        return exposure_travel_m(self.params, speed_m_s, self.ev)
 
     def apply(
         self,

@@ -6,10 +6,12 @@ meter's scene bias are the default camera profile's (:mod:`simroad.camera.profil
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from simroad.camera.profile import CameraProfile
 from simroad.core.daylight import CCT_RANGE_K
+from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_bool, check_fields_in_range, check_int_in_range
 
 __all__ = ["SensorParams"]
@@ -177,6 +179,22 @@ class SensorParams:
             vignetting=False,
             motion_blur=False,
             jpeg_quality=None,
+        )
+
+    def with_profile(self, profile: CameraProfile) -> SensorParams:
+        """These parameters with the camera fields (:data:`~simroad.camera.profile.CAMERA_FIELDS`)
+        of ``profile``: its exposure bias moves the auto-exposure's target (through the
+        encoding, at most 0.95), the rest are the sensor's fields of the same meaning."""
+        return dataclasses.replace(
+            self,
+            ae_target_mean=min(0.95, self.ae_target_mean * 2.0 ** (profile.exposure_bias_ev / GAMMA)),
+            ae_scene_bias_ev=profile.exposure_spread_ev,
+            wb_preset_k=profile.wb_preset_k,
+            awb_strength=profile.awb_strength,
+            gamma=profile.tone_gamma,
+            tone_shoulder=profile.tone_shoulder,
+            saturation=profile.saturation,
+            full_well_e=profile.full_well_e,
         )
 
     @property

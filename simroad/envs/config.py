@@ -12,7 +12,6 @@ from simroad.camera.geometry import CameraConfig
 from simroad.camera.palette import ROADSIDE_KINDS
 from simroad.camera.profile import CameraProfile, resolve_profile
 from simroad.camera.sensor_params import SensorParams
-from simroad.core.radiometry import GAMMA
 from simroad.core.validation import check_bool, check_choice, check_in_range
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
@@ -148,17 +147,7 @@ class RoadCamConfig:
         cp = self.camera_profile
         if cp is None:
             return params
-        return dataclasses.replace(
-            params,
-            ae_target_mean=min(0.95, params.ae_target_mean * 2.0 ** (cp.exposure_bias_ev / GAMMA)),
-            ae_scene_bias_ev=cp.exposure_spread_ev,
-            wb_preset_k=cp.wb_preset_k,
-            awb_strength=cp.awb_strength,
-            gamma=cp.tone_gamma,
-            tone_shoulder=cp.tone_shoulder,
-            saturation=cp.saturation,
-            full_well_e=cp.full_well_e,
-        )
+        return params.with_profile(cp)
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> RoadCamConfig:

@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from simroad.camera import CameraRenderer, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
+from simroad.camera import CameraRenderer, Frame, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
 from simroad.camera.scenery import Scenery
 from simroad.camera.sky import SKY_VIEW
@@ -329,12 +329,20 @@ class RoadCamEnv(gym.Env):
         s, _ = lane.local_coordinates(self.vehicle.position)
         return index[1] == nodes[-1] and s >= lane.length - 10.0
 
-    def _observe(self, *, crashed: bool):
+    def render_scene(self, *, motion_m: float = 0.0) -> Frame:
+        """What the camera's lens sees now, before the weather and the sensor: the
+        renderer's :class:`~simroad.camera.render.Frame` of the current state (colour,
+        exact road mask, depth, faces), the ground blurred by ``motion_m`` metres of
+        travel during the exposure (the observations use the sensor's
+        :meth:`~simroad.camera.sensor.Sensor.travel_m`). Draws nothing: the episode's
+        frames are the same whether it is called or not."""
         if self.renderer is None:
             raise ResetNeededError("reset() must be called before the first step; call env.reset(seed=...).")
+        return self.renderer.render(self._pose(), self._others(), motion_m=motion_m)
+
+    def _observe(self, *, crashed: bool):
         speed = float(self.vehicle.speed)
-        motion = self.sensor.travel_m(speed) if self.sensor is not None else 0.0
-        frame = self.renderer.render(self._pose(), self._others(), motion_m=motion)
+        frame = self.render_scene(motion_m=self.sensor.travel_m(speed) if self.sensor is not None else 0.0)
         rgb = frame.rgb
         masks: dict[str, np.ndarray] = {}
         if self.weather is not None:

@@ -35,7 +35,7 @@ from simroad.experiments._ray_backend import run_on_ray
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, profile_record, run_episode
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import OutputLock
-from simroad.experiments.pool import Interrupts, run_in_workers
+from simroad.experiments.pool import Interrupts, default_workers, run_in_workers
 from simroad.experiments.results import ResultStore  # re-exported here for old imports
 from simroad.filters.pipeline import format_filters
 
@@ -135,7 +135,7 @@ def run_ablation(
             "Build one with AblationGrid(scenarios=..., noises=...) or load_grid_file(path)."
         )
     check_choice("backend", backend, BACKENDS)
-    workers = check_int_in_range("workers", workers if workers is not None else (os.cpu_count() or 1), 1, 4096)
+    workers = check_int_in_range("workers", workers if workers is not None else default_workers(), 1, 4096)
     specs = grid.specs()
     if not specs:
         raise InvalidParameterError("grid: it has no cells; give at least one scenario, noise, filter set and seed.")

@@ -5,10 +5,15 @@
 appearance statistics (:mod:`simroad.metrics.appearance`) of simroad's clear frames
 rendered with the profile match those of the photographs.
 
-One evaluation renders the same worlds every time (:func:`profile_statistics`:
-every scenario and seed, ``frames`` frames each, the ground-truth autopilot driving):
-common random numbers, so the objective changes only with the profile, not with the
-draw of worlds. The objective (:func:`calibration_objective`) is the mean, over the
+Every evaluation scores the same worlds (every scenario and seed, ``frames`` frames
+each, the ground-truth autopilot driving): common random numbers, so the objective
+changes only with the profile, not with the draw of worlds. The worlds are rendered
+once and the camera's fields tried by exposing the recorded renders again
+(:mod:`simroad.experiments.replay`): two hundred worlds per evaluation for the price
+of a dozen, which is what keeps the fit from learning the daylight draws of a few
+worlds instead of the camera. The daylight and asphalt fields change the world and
+are tried by rendering it again, in a block of their own (:func:`calibrate_profile`).
+The objective (:func:`calibration_objective`) is the mean, over the
 statistics and the levels :data:`OBJECTIVE_LEVELS` (p10, p25, p50, p75, p90), of
 the absolute difference between the frames' and the photos' quantiles, each divided
 by the photos' p90 - p10 of that statistic (floored by :data:`_SCALE_FLOOR`): 0 is
@@ -31,24 +36,21 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.optimize import minimize
 from scipy.stats import ks_2samp
-from tqdm import tqdm
 
 from simroad.camera.profile import CameraProfile, save_profile
 from simroad.core.validation import check_int_in_range, check_output_file
 from simroad.envs import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError
+from simroad.experiments.calibration_search import BlockSearch
 from simroad.experiments.frames import check_frame_protocol, collect_frames
+from simroad.experiments.pool import default_workers
 from simroad.experiments.profile_space import (
     FIT_PARAMETERS,
     check_fit,
-    from_unit,
-    simplex,
-    to_unit,
-    unit_coordinates,
 )
 from simroad.experiments.realism import check_env_options, photo_statistics
+from simroad.experiments.replay import record_worlds, replay_statistics
 from simroad.metrics.appearance import STATISTICS, frame_appearance
 
 __all__ = [
@@ -64,8 +66,11 @@ __all__ = [
     "write_calibration",
 ]
 
-#: Worlds the fit renders (no other tuning uses them; realism uses 5000-5012).
-CALIBRATION_SEEDS = range(6000, 6003)
+#: Worlds the fit renders, per scenario (no other tuning uses them; realism uses
+#: 5000-5012): 200 worlds in all, as many as a photo set of a few hundred frames
+#: needs for the frames' quantiles to be as sure as the photos' (at a dozen worlds the
+#: fit learns those worlds' daylight draws instead of the camera).
+CALIBRATION_SEEDS = range(6000, 6050)
 #: Quantile levels the objective compares.
 OBJECTIVE_LEVELS = (0.1, 0.25, 0.5, 0.75, 0.9)
 #: Smallest scale of a statistic's quantile differences (a photo set with no spread in
@@ -93,7 +98,9 @@ class CalibrationResult:
     fitted : tuple of str
         The fields the search moved.
     evaluations : int
-        Profiles rendered and scored.
+        Profiles scored (each on every world's frames).
+    renders : int
+        Renders of the worlds (the others were exposures of recorded renders).
     frames : int
         Frames with statistics per evaluation (the fitted profile's).
     photos : int
@@ -110,6 +117,7 @@ class CalibrationResult:
     start_ks: dict[str, float]
     fitted: tuple[str, ...]
     evaluations: int
+    renders: int
     frames: int
     photos: int
     source: str
@@ -198,12 +206,22 @@ def calibrate_profile(
     fit: Sequence[str] = FIT_PARAMETERS,
     scenarios: Sequence[str] = SCENARIO_NAMES,
     seeds: Iterable[int] = CALIBRATION_SEEDS,
-    frames: int = 3,
-    max_evaluations: int = 120,
+    frames: int = 1,
+    max_evaluations: int = 24,
+    max_replays: int = 800,
+    workers: int | None = None,
     env_options: Mapping[str, Any] | None = None,
     progress: bool = False,
 ) -> CalibrationResult:
     """Fit the profile fields ``fit`` so that rendered clear frames look like ``reference``.
+
+    The worlds (every scenario and seed) are rendered and recorded once
+    (:func:`~simroad.experiments.replay.record_worlds`); the camera fields
+    (:data:`~simroad.camera.profile.CAMERA_FIELDS`) are searched by exposing the
+    recordings again with each profile tried (:func:`~simroad.experiments.replay.replay_statistics`,
+    cheap); the daylight and asphalt fields by rendering the worlds again for each
+    profile tried (dear), each with the camera that suits it
+    (:mod:`simroad.experiments.calibration_search` has the plan).
 
     Parameters
     ----------
@@ -220,14 +238,19 @@ def calibrate_profile(
         :data:`~simroad.camera.profile.PROFILE_RANGES` or ``sky_brightness``.
     scenarios, seeds, frames
         The worlds of every evaluation: one episode per scenario and seed,
-        ``frames`` frames each in [1, 50] (:func:`profile_statistics`).
+        ``frames`` frames each in [1, 50] (policy steps 5, 10, ...).
     max_evaluations : int
-        Profiles the search may render, in [1, 10000] (one evaluation of ``start`` among them).
+        Renders of the worlds at most, in [1, 10000] (the first, with ``start``, among them).
+    max_replays : int
+        Profiles scored from the recordings at most, in [1, 100000].
+    workers : int, optional
+        Processes that render the worlds, threads that expose them (default: the cores
+        this process may use).
     env_options : dict, optional
         Further RoadCam keywords for every environment (camera size, ...); not
         ``scenario``, ``noise``, ``severity`` or ``camera_profile``.
     progress : bool
-        Show a progress bar over the evaluations.
+        Show a progress bar over the renders.
 
     Returns
     -------
@@ -237,6 +260,8 @@ def calibrate_profile(
     scenarios, worlds = check_frame_protocol(scenarios=scenarios, seeds=seeds, noise="clear", severity=0.0)
     frames = check_int_in_range("frames", frames, 1, 50)
     max_evaluations = check_int_in_range("max_evaluations", max_evaluations, 1, 10_000)
+    max_replays = check_int_in_range("max_replays", max_replays, 1, 100_000)
+    workers = default_workers() if workers is None else check_int_in_range("workers", workers, 1, 256)
     start = _check_start(start)
     names = check_fit(fit)
     options = check_env_options(
@@ -244,53 +269,40 @@ def calibrate_profile(
         "set by the calibration (clear frames of its scenarios with the profile it tries); drop them.",
     )  # fmt: skip
     calibration_objective({}, ref)  # refuses a reference without values before any rendering
-    coords = unit_coordinates(names)
-    seen: dict[bytes, tuple[float, dict[str, np.ndarray]]] = {}
-    bar = tqdm(total=max_evaluations, desc="calibrate", unit="profile", disable=not progress)
-
-    def evaluate(x: np.ndarray) -> float:
-        x = np.clip(x, 0.0, 1.0)
-        key = np.round(x, 9).tobytes()
-        if key not in seen:
-            profile = from_unit(x, start, coords)
-            values = profile_statistics(profile, scenarios=scenarios, seeds=worlds, frames=frames, env_options=options)
-            seen[key] = (calibration_objective(values, ref), values)
-            bar.update(1)
-            best = min(v[0] for v in seen.values())
-            bar.set_postfix(objective=f"{seen[key][0]:.3f}", best=f"{best:.3f}")
-        return seen[key][0]
-
-    x0 = to_unit(start, coords)
+    search = BlockSearch(
+        lambda values: calibration_objective(values, ref),
+        lambda profile: record_worlds(
+            profile,
+            scenarios=scenarios,
+            seeds=worlds,
+            frames=frames,
+            every=_EVERY,
+            env_options=options,
+            workers=workers,
+        ),
+        lambda recordings, profile: replay_statistics(recordings, profile, env_options=options, threads=workers),
+        names,
+        start,
+        max_evaluations,
+        max_replays,
+        progress,
+    )
     try:
-        first = evaluate(x0)
-        if max_evaluations > 1:
-            minimize(
-                evaluate,
-                x0,
-                method="Nelder-Mead",
-                bounds=[(0.0, 1.0)] * x0.size,
-                options={
-                    "maxfev": max_evaluations,  # its first call, at x0, is the one already made
-                    "initial_simplex": simplex(x0),
-                    "xatol": 0.004,
-                    "fatol": 0.002,
-                },
-            )
+        search.run()
     finally:
-        bar.close()
-    start_values = seen[np.round(np.clip(x0, 0.0, 1.0), 9).tobytes()][1]
-    best_key = min(seen, key=lambda k: seen[k][0])
-    best, best_values = seen[best_key]
-    best_x = np.frombuffer(best_key, dtype=float)
+        search.bar.close()
+    best, best_values = search.best
+    start_objective, start_values = search.first
     return CalibrationResult(
-        profile=from_unit(best_x, start, coords),
+        profile=search.profile,
         start=start,
         objective=best,
-        start_objective=first,
+        start_objective=start_objective,
         ks=ks_distances(best_values, ref),
         start_ks=ks_distances(start_values, ref),
         fitted=names,
-        evaluations=len(seen),
+        evaluations=search.replays,
+        renders=search.renders,
         frames=int(best_values["road_V"].size),
         photos=int(ref["road_V"].size),
         source=source,
@@ -335,7 +347,8 @@ def format_calibration(result: CalibrationResult) -> str:
         lines.append(f"{s:<20}  {_cell(result.start_ks[s]):>10}  {_cell(result.ks[s]):>9}")
     lines.append(
         f"objective (mean quantile miss / photos' p10-p90 spread): {result.start_objective:.3f} -> "
-        f"{result.objective:.3f}; {result.evaluations} profiles of {result.frames} frames each; "
+        f"{result.objective:.3f}; {result.evaluations} profiles of {result.frames} frames each "
+        f"({result.renders} renders); "
         f"{result.photos} photographs ({result.source})"
     )
     return "\n".join(lines)
@@ -351,7 +364,7 @@ def write_calibration(result: CalibrationResult, out: str | os.PathLike) -> Path
         [
             "Written by simroad calibrate: a camera profile fitted to photographs.",
             f"photos: {result.source}",
-            f"frames per evaluation: {result.frames}; evaluations: {result.evaluations}; "
+            f"frames per evaluation: {result.frames}; evaluations: {result.evaluations}; renders: {result.renders}; "
             f"fitted: {', '.join(result.fitted)}",
             f"objective: {result.start_objective:.4f} (default profile) -> {result.objective:.4f}",
             f"KS to the photos: {ks}",

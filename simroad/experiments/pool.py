@@ -16,6 +16,7 @@ at worst leave the last line torn, which the next run moves aside.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import signal
 import threading
 import time
@@ -25,7 +26,7 @@ from multiprocessing.connection import Connection, wait
 from types import FrameType
 from typing import Any
 
-__all__ = ["Interrupts", "run_in_workers"]
+__all__ = ["Interrupts", "default_workers", "run_in_workers"]
 
 #: How often (s) the parent checks for an interrupt while waiting for results.
 _POLL_S = 0.1
@@ -36,6 +37,14 @@ _TERM_GRACE_S = 2.0
 #: Imported once by the fork server, before it forks any worker: every worker starts with
 #: simroad's episode machinery loaded (about a second each otherwise).
 _PRELOAD = ["simroad.experiments.ablate"]
+
+
+def default_workers() -> int:
+    """Worker processes by default: the cores this process may use (its CPU affinity
+    where the platform has one, else every core)."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return max(1, os.cpu_count() or 1)
 
 
 def _context() -> Any:
@@ -154,11 +163,11 @@ class _Workers:
 def run_in_workers(
     items: list[Any],
     n: int,
-    cell_fn: Callable[[Any], dict],
+    cell_fn: Callable[[Any], Any],
     *,
     initializer: Callable[[], None] | None = None,
     interrupts: Interrupts | None = None,
-) -> Iterator[dict]:
+) -> Iterator[Any]:
     """Yield ``cell_fn(item)`` for every item, computed in ``n`` worker processes.
 
     Parameters
@@ -177,8 +186,8 @@ def run_in_workers(
 
     Yields
     ------
-    dict
-        Each record as soon as it is done (not in item order).
+    object
+        Each result (a sweep's record) as soon as it is done (not in item order).
 
     Raises
     ------

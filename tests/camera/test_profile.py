@@ -3,9 +3,20 @@ unusable file or value is refused by name."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
-from simroad.camera.profile import CameraProfile, load_profile, profile_from_dict, resolve_profile, save_profile
+from simroad.camera.profile import (
+    CAMERA_FIELDS,
+    PROFILE_RANGES,
+    CameraProfile,
+    load_profile,
+    profile_from_dict,
+    resolve_profile,
+    save_profile,
+)
+from simroad.camera.sensor_params import SensorParams
 from simroad.errors import InvalidParameterError
 
 FITTED = CameraProfile(
@@ -72,3 +83,21 @@ def test_bad_files_are_refused_by_name(tmp_path, text, words):
 def test_a_missing_file_is_refused_by_name(tmp_path):
     with pytest.raises(InvalidParameterError, match="camera_profile"):
         load_profile(tmp_path / "nowhere.toml")
+
+
+def _moved(profile: CameraProfile, name: str) -> CameraProfile:
+    """``profile`` with field ``name`` moved inside its range."""
+    value = getattr(profile, name)
+    if isinstance(value, tuple):
+        return dataclasses.replace(profile, **{name: (value[0] * 1.1, value[1] * 1.05)})
+    lo, hi, _ = PROFILE_RANGES[name]
+    return dataclasses.replace(profile, **{name: value + 0.1 * (hi - lo) if value + 0.1 * (hi - lo) <= hi else lo})
+
+
+def test_the_sensor_reads_exactly_the_camera_fields():
+    """What the calibration's replays rely on: a profile that differs only in daylight
+    or asphalt gives the same sensor; each camera field changes it."""
+    params, base = SensorParams(), CameraProfile(overcast_share=0.4)
+    for f in dataclasses.fields(CameraProfile):
+        moved = params.with_profile(_moved(base, f.name))
+        assert (moved != params.with_profile(base)) == (f.name in CAMERA_FIELDS), f.name

@@ -49,12 +49,13 @@ def no_rendering(monkeypatch):
         raise AssertionError("rendered before refusing")
 
     monkeypatch.setattr(calibrate_module, "collect_frames", fail)
+    monkeypatch.setattr(calibrate_module, "record_worlds", fail)
 
 
 def test_defaults_are_the_librarys():
     args = build_parser().parse_args(["calibrate", "--photos", ".", "--masks", ".", "--out", "c.toml"])
     assert range(args.seed_start, args.seed_start + args.seeds) == CALIBRATION_SEEDS
-    assert (args.frames, args.max_evaluations) == (3, 120)
+    assert (args.frames, args.max_evaluations, args.max_replays, args.workers) == (1, 24, 800, None)
     assert tuple(args.fit) == FIT_PARAMETERS and args.scenarios == ("racetrack", "highway", "winding", "town")
 
 
@@ -66,6 +67,8 @@ def test_defaults_are_the_librarys():
         (["--out", "{tmp}"], "is a directory"),
         (["--fit", "tone_gama"], "Did you mean 'tone_gamma'"),
         (["--max-evaluations", "0"], "--max-evaluations"),
+        (["--max-replays", "0"], "--max-replays"),
+        (["--workers", "0"], "--workers"),
         (["--seeds", "2", "--seed-start", "2147483647"], "largest seed"),
     ],
 )

@@ -113,27 +113,60 @@ def test_ks_distances_two_samples():
 
 
 def _synthetic(profile: CameraProfile, **_) -> dict[str, np.ndarray]:
-    """Statistics that move smoothly with exposure, white balance and contrast."""
+    """Statistics that move smoothly with exposure, white balance, contrast and the asphalt."""
     base = np.linspace(-1.0, 1.0, 24)
     out = dict.fromkeys(STATISTICS, 0.3 + 0.05 * base)
     out["road_V"] = 0.35 + 0.08 * profile.exposure_bias_ev + 0.05 * base
     out["road_b"] = 0.004 * (profile.wb_preset_k - 4800.0) + 2.0 * base
     out["road_spread"] = 0.1 * profile.tone_gamma + 0.03 * base
+    out["road_minus_surround"] = 0.1 * profile.asphalt_scale - 0.05 * profile.exposure_bias_ev + 0.02 * base
     return out
 
 
-def test_the_search_recovers_a_synthetic_camera_within_its_budget(monkeypatch):
-    monkeypatch.setattr(calibrate_module, "profile_statistics", _synthetic)
+@pytest.fixture
+def synthetic(monkeypatch):
+    """A synthetic camera: a "render" records the profile's world fields, a "replay"
+    scores the recorded world with the replayed profile's camera fields."""
+    renders = []
+
+    def record(profile, **_):
+        renders.append(profile)
+        return profile
+
+    def replay(recorded, profile, **_):
+        world = {f: getattr(recorded, f) for f in ("asphalt_scale", "sky_brightness", "overcast_share", "hazy_share")}
+        return _synthetic(dataclasses.replace(profile, **world))
+
+    monkeypatch.setattr(calibrate_module, "record_worlds", record)
+    monkeypatch.setattr(calibrate_module, "replay_statistics", replay)
+    return renders
+
+
+def test_the_search_recovers_a_synthetic_camera_within_its_budget(synthetic):
     truth = CameraProfile(exposure_bias_ev=0.8, wb_preset_k=4200.0, tone_gamma=1.3)
     fit = ("exposure_bias_ev", "wb_preset_k", "tone_gamma")
-    result = calibrate_profile(_synthetic(truth), fit=fit, max_evaluations=150)
+    result = calibrate_profile(_synthetic(truth), fit=fit, max_replays=150)
     assert result.evaluations <= 150 and result.objective < 0.02 < result.start_objective
+    assert result.renders == 1 == len(synthetic)  # camera fields only: one render, the rest replays
     assert result.profile.exposure_bias_ev == pytest.approx(0.8, abs=0.05)
     assert result.profile.wb_preset_k == pytest.approx(4200.0, abs=40.0)
     assert result.profile.tone_gamma == pytest.approx(1.3, abs=0.05)
     assert result.ks["road_V"] < result.start_ks["road_V"]
     for budget in (1, 2, 7):
-        assert calibrate_profile(_synthetic(truth), fit=fit, max_evaluations=budget).evaluations == budget
+        assert calibrate_profile(_synthetic(truth), fit=fit, max_replays=budget).evaluations == budget
+
+
+def test_the_world_fields_are_searched_by_rendering_within_their_budget(synthetic):
+    truth = CameraProfile(exposure_bias_ev=0.8, asphalt_scale=1.4)
+    result = calibrate_profile(_synthetic(truth), fit=("exposure_bias_ev", "asphalt_scale"), max_evaluations=12)
+    assert 2 <= result.renders <= 12 and result.renders == len(synthetic)
+    assert result.evaluations > result.renders  # the camera's field on the recorded renders
+    assert result.objective < 0.05 < result.start_objective
+    assert result.profile.asphalt_scale == pytest.approx(1.4, abs=0.1)
+    assert result.profile.exposure_bias_ev == pytest.approx(0.8, abs=0.1)
+    assert all(p.exposure_bias_ev == 0.0 for p in synthetic[:1])  # the first render is the start's
+    one = calibrate_profile(_synthetic(truth), fit=("asphalt_scale",), max_evaluations=1)
+    assert one.renders == 1 and one.profile == CameraProfile()
 
 
 # --- refusals before rendering -----------------------------------------------------
@@ -145,6 +178,7 @@ def no_rendering(monkeypatch):
         raise AssertionError("rendered before refusing")
 
     monkeypatch.setattr(calibrate_module, "collect_frames", fail)
+    monkeypatch.setattr(calibrate_module, "record_worlds", fail)
 
 
 @pytest.mark.parametrize(
@@ -152,6 +186,8 @@ def no_rendering(monkeypatch):
     [
         ({"fit": ("exposure",)}, "fit: unknown value 'exposure'"),
         ({"max_evaluations": 0}, "max_evaluations"),
+        ({"max_replays": 0}, "max_replays"),
+        ({"workers": 0}, "workers"),
         ({"frames": 0}, "frames"),
         ({"scenarios": ("racetrak",)}, "Did you mean 'racetrack'"),
         ({"seeds": ()}, "seeds"),
@@ -215,9 +251,9 @@ def test_profile_statistics_change_with_the_profile():
 def test_a_short_fit_writes_a_profile_that_loads(tmp_path):
     photos, masks = _write_photos(tmp_path, TRUTH, (7000,), scenarios=("highway",))
     result = calibrate_from_photos(
-        photos, masks, fit=("exposure_bias_ev",), scenarios=("highway",), seeds=(6000,), frames=1, max_evaluations=4
+        photos, masks, fit=("exposure_bias_ev",), scenarios=("highway",), seeds=(6000,), frames=1, max_replays=4
     )
-    assert 2 <= result.evaluations <= 4 and result.photos == 2 and result.frames == 1
+    assert 2 <= result.evaluations <= 4 and result.renders == 1 and result.photos == 2 and result.frames == 1
     assert result.objective <= result.start_objective and result.fitted == ("exposure_bias_ev",)
     assert dataclasses.replace(result.profile, exposure_bias_ev=0.0) == CameraProfile()  # only the fitted field moved
     text = format_calibration(result)
@@ -236,10 +272,17 @@ def test_recovers_a_known_profile_from_frames_it_rendered(tmp_path):
     Sized for a test
     (16 photos, 8 frames per evaluation), where the contrast and the asphalt trade off
     within the sampling noise; benchmarks/calibration_check.py runs the acceptance check
-    at size (200 photos). About 3 minutes on 2 idle cores."""
+    at size (200 photos). Six renders of the four worlds, the rest replays."""
     photos, masks = _write_photos(tmp_path, TRUTH, range(7000, 7004))
     result = calibrate_from_photos(
-        photos, masks, fit=FOUR, scenarios=("racetrack", "winding"), seeds=(6000, 6001), frames=2, max_evaluations=30
+        photos,
+        masks,
+        fit=FOUR,
+        scenarios=("racetrack", "winding"),
+        seeds=(6000, 6001),
+        frames=2,
+        max_evaluations=6,
+        max_replays=150,
     )
     assert result.photos == 16 and result.frames == 8
     assert result.objective < 0.5 * result.start_objective
