@@ -80,7 +80,7 @@ def main(argv: list[str]) -> int:
     p.add_argument("--fit-seeds", type=int, default=50, help="worlds per scenario per evaluation (default 50)")
     p.add_argument("--fit-frames", type=int, default=1, help="frames per world per evaluation (default 1)")
     p.add_argument("--max-evaluations", type=int, default=24, help="renders of the fit's worlds at most")
-    p.add_argument("--max-replays", type=int, default=800, help="profiles scored from recorded renders at most")
+    p.add_argument("--max-replays", type=int, default=200, help="profiles scored from recorded renders at most")
     p.add_argument("--fit", default="exposure_bias_ev,wb_preset_k,tone_gamma,asphalt_scale")
     p.add_argument("--out", type=Path, default=Path("runs/calibration-check"))
     p.add_argument(

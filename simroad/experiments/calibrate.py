@@ -208,7 +208,7 @@ def calibrate_profile(
     seeds: Iterable[int] = CALIBRATION_SEEDS,
     frames: int = 1,
     max_evaluations: int = 24,
-    max_replays: int = 800,
+    max_replays: int = 200,
     workers: int | None = None,
     env_options: Mapping[str, Any] | None = None,
     progress: bool = False,

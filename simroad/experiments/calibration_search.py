@@ -32,10 +32,11 @@ __all__ = ["BlockSearch"]
 #: The first simplex's step (unit coordinates): wide for a search from the start,
 #: narrow for one from the best camera so far.
 _WIDE, _NARROW = 0.2, 0.05
-#: Profiles each world profile's camera search may score, per camera field (and 4
-#: more): enough for the camera to settle on each world tried, so that the world's
-#: search compares worlds and not how far their cameras got.
-_INNER_PER_FIELD = 10
+#: Profiles each world profile's camera search may score, per camera field (and 2
+#: more). Measured (benchmarks/calibration_check.py): with 10 per field the camera
+#: made up for any asphalt (a flat valley: the world's search stayed at the start),
+#: with 5 the fit landed nearer the truth.
+_INNER_PER_FIELD = 5
 
 
 class BlockSearch:
@@ -108,7 +109,7 @@ class BlockSearch:
         with the camera that suits it (a short camera search from the best so far)."""
         base, memo = self.profile, {}
         renders_left = self.max_renders - self.renders
-        inner = _INNER_PER_FIELD * len(self.camera) + 4 if self.camera else 0
+        inner = _INNER_PER_FIELD * len(self.camera) + 2 if self.camera else 0
 
         def objective(x: np.ndarray) -> float:
             key = np.round(np.clip(x, 0.0, 1.0), 9).tobytes()

@@ -55,7 +55,7 @@ def no_rendering(monkeypatch):
 def test_defaults_are_the_librarys():
     args = build_parser().parse_args(["calibrate", "--photos", ".", "--masks", ".", "--out", "c.toml"])
     assert range(args.seed_start, args.seed_start + args.seeds) == CALIBRATION_SEEDS
-    assert (args.frames, args.max_evaluations, args.max_replays, args.workers) == (1, 24, 800, None)
+    assert (args.frames, args.max_evaluations, args.max_replays, args.workers) == (1, 24, 200, None)
     assert tuple(args.fit) == FIT_PARAMETERS and args.scenarios == ("racetrack", "highway", "winding", "town")
 
 
