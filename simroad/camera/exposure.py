@@ -129,9 +129,9 @@ def process_chroma(
     half_ready: bool = False,
 ) -> None:
     """The chroma stage of a camera's processing, on the encoded frame ``out`` (uint8
-    RGB, in place): the luma Y (Rec. 601) is kept; the chroma (Cr, Cb) is scaled by
-    ``factor`` about neutral and, when ``denoise_px`` > 0, smoothed to a Gaussian of
-    about ``denoise_px`` pixels at half resolution (4:2:0), saturating at 0 and 255.
+    RGB, in place): the luma Y (Rec. 601) is kept; the chroma ``c - Y`` is scaled by
+    ``factor`` and, when ``denoise_px`` > 0, smoothed to a Gaussian of about
+    ``denoise_px`` pixels at half resolution (4:2:0), saturating at 0 and 255.
 
     Every camera's processor reduces chroma noise far more than luma noise (the eye
     is blind to fine colour detail) and video keeps chroma at half resolution (4:2:0):
@@ -139,15 +139,17 @@ def process_chroma(
     cameras then render colours 10-40 % more saturated than colorimetric (a
     "preferred" reproduction).
 
-    With ``denoise_px`` > 0 the chroma is averaged over 2 x 2 pixels, smoothed at half
-    resolution and brought back bilinearly; the box and the bilinear tent already
+    With ``denoise_px`` > 0 the frame is averaged over 2 x 2 pixels, its chroma taken
+    there in whole levels (int16: no 8-bit Cr/Cb step of 1.4-1.8 levels, which moved a
+    grey road's tint), smoothed and scaled in one separable filter and brought back
+    bilinearly onto the full-resolution luma; the box and the bilinear tent already
     spread it by about ``_SUBSAMPLING_VAR_PX2`` (variance, full-resolution pixels), so
-    the half-resolution Gaussian makes up the rest of ``denoise_px ** 2``. All on
-    OpenCV's fixed-point 8-bit paths: a quarter of the pixels, 4-5x faster than
-    smoothing the full-resolution chroma in float. ``scratch`` (of ``out``'s size) holds
-    the intermediate planes across frames (fresh ones when None): a frame's worth of
-    new memory per call costs as much again as the arithmetic. ``half_ready``: its
-    ``half`` holds ``out`` averaged over 2 x 2 pixels already (:func:`half_resolution`).
+    the half-resolution Gaussian makes up the rest of ``denoise_px ** 2``. A quarter of
+    the pixels on OpenCV's integer paths: about 4x faster than smoothing the
+    full-resolution chroma in float, within a level of it. ``scratch`` (of ``out``'s
+    size) holds the planes across frames (fresh ones when None): a frame's worth of new
+    memory per call costs as much again as the arithmetic. ``half_ready``: its ``half``
+    holds ``out`` averaged over 2 x 2 pixels already (:func:`half_resolution`).
     """
     if denoise_px <= 0.0:
         grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
@@ -156,26 +158,22 @@ def process_chroma(
     h, w = out.shape[:2]
     if scratch is None or scratch.shape != (h, w):
         scratch = ProcessingScratch(h, w)
-    luma, half, full = scratch.luma, scratch.half, scratch.full
-    cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=luma)
+    sc = scratch
+    cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=sc.luma)
     if not half_ready:
-        half_resolution(out, half)
-    cv2.cvtColor(half, cv2.COLOR_RGB2YCrCb, dst=half)
+        half_resolution(out, sc.half)
+    cv2.cvtColor(sc.half, cv2.COLOR_RGB2GRAY, dst=sc.half_luma)
+    cv2.merge([sc.half_luma, sc.half_luma, sc.half_luma], dst=sc.half_luma3)
+    cv2.subtract(sc.half, sc.half_luma3, dst=sc.half_chroma, dtype=cv2.CV_16S)
     sigma = math.sqrt(max(denoise_px * denoise_px - _SUBSAMPLING_VAR_PX2, 0.0)) / 2.0
     kernel = _chroma_kernel(round(sigma, 3))
-    # One pass smooths and scales: the kernel sums to ``factor``, neutral (128) stays.
+    # One pass smooths and scales: the kernel sums to ``factor``.
     cv2.sepFilter2D(
-        half,
-        -1,
-        kernel,
-        kernel * np.float32(factor),
-        dst=half,
-        delta=128.0 * (1.0 - float(factor)),
-        borderType=cv2.BORDER_REFLECT,
+        sc.half_chroma, -1, kernel, kernel * np.float32(factor), dst=sc.half_chroma, borderType=cv2.BORDER_REFLECT
     )
-    cv2.resize(half, (w, h), dst=full, interpolation=cv2.INTER_LINEAR)
-    cv2.mixChannels([luma], [full], [0, 0])  # channel 0 (the smoothed luma) back to the frame's
-    cv2.cvtColor(full, cv2.COLOR_YCrCb2RGB, dst=out)
+    cv2.resize(sc.half_chroma, (w, h), dst=sc.chroma, interpolation=cv2.INTER_LINEAR)
+    cv2.merge([sc.luma, sc.luma, sc.luma], dst=sc.luma3)
+    cv2.add(sc.chroma, sc.luma3, dst=out, dtype=cv2.CV_8U)
 
 
 def half_resolution(frame: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -185,15 +183,21 @@ def half_resolution(frame: np.ndarray, dst: np.ndarray) -> np.ndarray:
 
 
 class ProcessingScratch:
-    """The camera processing's planes for frames of ``height`` x ``width`` (uint8): the
-    luma, the frame at half resolution (the meter's statistics, then the chroma's
-    YCrCb) and the full-resolution YCrCb."""
+    """The camera processing's planes for frames of ``height`` x ``width``: the luma and
+    its three-channel copy, the frame at half resolution (the meter's statistics and the
+    chroma's source) with its luma, and the chroma at half and full resolution (int16)."""
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (int(height), int(width))
-        self.luma = np.empty(self.shape, np.uint8)
-        self.half = np.empty(((self.shape[0] + 1) // 2, (self.shape[1] + 1) // 2, 3), np.uint8)
-        self.full = np.empty((*self.shape, 3), np.uint8)
+        h, w = self.shape
+        hh, hw = (h + 1) // 2, (w + 1) // 2
+        self.luma = np.empty((h, w), np.uint8)
+        self.luma3 = np.empty((h, w, 3), np.uint8)
+        self.half = np.empty((hh, hw, 3), np.uint8)
+        self.half_luma = np.empty((hh, hw), np.uint8)
+        self.half_luma3 = np.empty((hh, hw, 3), np.uint8)
+        self.half_chroma = np.empty((hh, hw, 3), np.int16)
+        self.chroma = np.empty((h, w, 3), np.int16)
 
 
 #: Variance (full-resolution pixels squared) the 2 x 2 box and the bilinear
