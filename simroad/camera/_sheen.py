@@ -16,9 +16,8 @@ smooth binder (:attr:`simroad.camera.palette.Palette.sheen`):
 
 with ``cos theta`` the sine of the view's depression angle. The map
 ``F L_sky(mirror)`` depends only on the camera's mounting and the world's sky, so it is
-computed once per episode, with the world's gloss, in integer steps of linear
-radiance; adding it to the road's pixels is one compiled pass over the ground rows
-(from and back to sRGB by table lookups).
+computed once per episode; adding it to the road's pixels is one compiled pass over
+the ground rows (in linear radiance, from and back to sRGB by table lookups).
 """
 
 from __future__ import annotations
@@ -30,14 +29,12 @@ from simroad.camera.geometry import PinholeCamera
 from simroad.camera.sky import SkySpec, camera_directions, sky_radiance
 from simroad.core.radiometry import DECODE_TABLE, GAMMA
 
-__all__ = ["DECODE_4095", "ENCODE_TABLE", "FRESNEL_F0", "add_sheen", "sheen_levels", "sheen_map"]
+__all__ = ["ENCODE_TABLE", "FRESNEL_F0", "add_sheen", "sheen_map"]
 
 #: Normal-incidence reflectance of bitumen (refractive index about 1.5).
 FRESNEL_F0 = 0.04
 #: Linear radiance (4096 steps over [0, 1]) -> sRGB level: the sheen's encoding.
 ENCODE_TABLE = np.minimum(np.rint(255.0 * (np.arange(4096) / 4095.0) ** (1.0 / GAMMA)), 255).astype(np.uint8)
-#: sRGB level -> linear radiance in the same 4096 steps (int32).
-DECODE_4095 = np.rint(DECODE_TABLE.astype(np.float64) * 4095.0).astype(np.int32)
 
 
 def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
@@ -66,29 +63,21 @@ def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
-@njit(cache=True, nogil=True)
-def _add(rgb, road, add, decode, encode):  # pragma: no cover - compiled
+@njit(cache=True)
+def _add(rgb, road, add, k, decode, encode):  # pragma: no cover - compiled
     h, w = road.shape
     top = rgb.shape[0] - h
     for y in range(h):
         for x in range(w):
             if road[y, x]:
                 for c in range(3):
-                    i = decode[rgb[top + y, x, c]] + add[y, x, c]
+                    lin = decode[rgb[top + y, x, c]] + k * add[y, x, c]
+                    i = int(lin * 4095.0 + 0.5)
                     rgb[top + y, x, c] = encode[min(i, 4095)]
 
 
-def sheen_levels(sheen: np.ndarray, gloss: float) -> np.ndarray:
-    """``gloss * sheen`` (the map of :func:`sheen_map`) in the sheen's 4096 steps of
-    linear radiance: uint16 (H - r0, W, 3), what :func:`add_sheen` adds. Computed once
-    per episode: the frame's pass is then integer additions and table lookups."""
-    gloss = float(gloss)
-    levels = np.rint(np.minimum(np.float32(max(gloss, 0.0)) * sheen, 1.0) * 4095.0)
-    return np.ascontiguousarray(levels, dtype=np.uint16)
-
-
-def add_sheen(rgb: np.ndarray, road: np.ndarray, levels: np.ndarray) -> None:
-    """Add the sheen ``levels`` (:func:`sheen_levels`) to the road pixels of the bottom
-    rows of ``rgb`` (uint8 (H, W, 3), in place): linear radiance in 4096 steps, from and
-    back to sRGB by tables; ``road`` is bool (H - r0, W)."""
-    _add(rgb, road, levels, DECODE_4095, ENCODE_TABLE)
+def add_sheen(rgb: np.ndarray, road: np.ndarray, sheen: np.ndarray, gloss: float) -> None:
+    """Add ``gloss * sheen`` (the map of :func:`sheen_map`) to the road pixels of the
+    bottom rows of ``rgb`` (uint8 (H, W, 3), in place); ``road`` is bool (H - r0, W)."""
+    if gloss > 0.0:
+        _add(rgb, road, sheen, np.float32(gloss), DECODE_TABLE, ENCODE_TABLE)

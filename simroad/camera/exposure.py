@@ -7,7 +7,6 @@ encoded frame, the auto-exposure's update, and the decoding of the rendered fram
 
 from __future__ import annotations
 
-import functools
 import math
 
 import cv2
@@ -23,7 +22,6 @@ __all__ = [
     "SENSOR_DECODE",
     "ProcessingScratch",
     "auto_exposure_update",
-    "half_resolution",
     "metered_mean",
     "process_chroma",
     "white_balance_gains",
@@ -71,9 +69,6 @@ def white_balance_gains(
 
 def metered_mean(out: np.ndarray, top: int = 0) -> float:
     """Centre-weighted mean (0-1) of the encoded frame ``out`` from row ``top`` down.
-    ``out`` may be the frame at any resolution (a cell is a share of the window): the
-    sensor meters the frame at half resolution (:func:`half_resolution`), 4x fewer
-    pixels for the same cells.
 
     The frame is averaged over a 16 x 9 grid of cells and the cells weighted by a
     Gaussian of the distance from the centre of the metering window (standard
@@ -126,91 +121,47 @@ def process_chroma(
     denoise_px: float = 0.0,
     *,
     scratch: ProcessingScratch | None = None,
-    half_ready: bool = False,
 ) -> None:
     """The chroma stage of a camera's processing, on the encoded frame ``out`` (uint8
-    RGB, in place): the luma Y (Rec. 601) is kept; the chroma ``c - Y`` is scaled by
-    ``factor`` and, when ``denoise_px`` > 0, smoothed to a Gaussian of about
-    ``denoise_px`` pixels at half resolution (4:2:0), saturating at 0 and 255.
+    RGB, in place): the chroma ``c - Y`` about the luma (Rec. 601 weights) is smoothed
+    by a Gaussian of ``denoise_px`` pixels (none at 0) and scaled by ``factor``:
+    ``Y + factor * G(c - Y)``, saturating at 0 and 255.
 
     Every camera's processor reduces chroma noise far more than luma noise (the eye
-    is blind to fine colour detail) and video keeps chroma at half resolution (4:2:0):
-    a grey road comes out grey, not speckled with colour. Consumer and automotive
-    cameras then render colours 10-40 % more saturated than colorimetric (a
-    "preferred" reproduction).
+    is blind to fine colour detail; video codecs then keep chroma at half resolution,
+    4:2:0): a grey road comes out grey, not speckled with colour. Consumer and
+    automotive cameras then render colours 10-40 % more saturated than colorimetric
+    (a "preferred" reproduction). ``scratch`` (of ``out``'s size) holds the float
+    planes across frames (fresh ones when None).
 
-    With ``denoise_px`` > 0 the frame is averaged over 2 x 2 pixels, its chroma taken
-    there in whole levels (int16: no 8-bit Cr/Cb step of 1.4-1.8 levels, which moved a
-    grey road's tint), smoothed and scaled in one separable filter and brought back
-    bilinearly onto the full-resolution luma; the box and the bilinear tent already
-    spread it by about ``_SUBSAMPLING_VAR_PX2`` (variance, full-resolution pixels), so
-    the half-resolution Gaussian makes up the rest of ``denoise_px ** 2``. A quarter of
-    the pixels on OpenCV's integer paths: about 4x faster than smoothing the
-    full-resolution chroma in float, within a level of it. ``scratch`` (of ``out``'s
-    size) holds the planes across frames (fresh ones when None): a frame's worth of new
-    memory per call costs as much again as the arithmetic. ``half_ready``: its ``half``
-    holds ``out`` averaged over 2 x 2 pixels already (:func:`half_resolution`).
+    (A half-resolution version on OpenCV's integer paths, 4x faster and within 3 levels
+    of this one, made the shipped detector, trained on these frames, leave racetrack
+    world 0: it waits for a detector retrained on its frames.)
     """
-    if denoise_px <= 0.0:
-        grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
-        cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
-        return
     h, w = out.shape[:2]
     if scratch is None or scratch.shape != (h, w):
         scratch = ProcessingScratch(h, w)
-    sc = scratch
-    cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=sc.luma)
-    if not half_ready:
-        half_resolution(out, sc.half)
-    cv2.cvtColor(sc.half, cv2.COLOR_RGB2GRAY, dst=sc.half_luma)
-    cv2.merge([sc.half_luma, sc.half_luma, sc.half_luma], dst=sc.half_luma3)
-    cv2.subtract(sc.half, sc.half_luma3, dst=sc.half_chroma, dtype=cv2.CV_16S)
-    sigma = math.sqrt(max(denoise_px * denoise_px - _SUBSAMPLING_VAR_PX2, 0.0)) / 2.0
-    kernel = _chroma_kernel(round(sigma, 3))
-    # One pass smooths and scales: the kernel sums to ``factor``.
-    cv2.sepFilter2D(
-        sc.half_chroma, -1, kernel, kernel * np.float32(factor), dst=sc.half_chroma, borderType=cv2.BORDER_REFLECT
-    )
-    cv2.resize(sc.half_chroma, (w, h), dst=sc.chroma, interpolation=cv2.INTER_LINEAR)
-    cv2.merge([sc.luma, sc.luma, sc.luma], dst=sc.luma3)
-    cv2.add(sc.chroma, sc.luma3, dst=out, dtype=cv2.CV_8U)
-
-
-def half_resolution(frame: np.ndarray, dst: np.ndarray) -> np.ndarray:
-    """``frame`` averaged over 2 x 2 pixels into ``dst`` (``((H + 1) // 2, (W + 1) // 2)``,
-    its dtype): the statistics grid of an ISP and the 4:2:0 chroma's resolution."""
-    return cv2.resize(frame, dst.shape[1::-1], dst=dst, interpolation=cv2.INTER_AREA)
+    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=scratch.luma)
+    if denoise_px > 0.0:
+        chroma = scratch.chroma
+        np.copyto(chroma, out, casting="unsafe")
+        chroma -= grey[:, :, None]
+        cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
+        chroma *= np.float32(factor)
+        chroma += grey[:, :, None]
+        np.clip(chroma, 0.0, 255.0, out=chroma)
+        np.rint(chroma, out=chroma)
+        np.copyto(out, chroma, casting="unsafe")
+        return
+    cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
 
 
 class ProcessingScratch:
-    """The camera processing's planes for frames of ``height`` x ``width``: the luma and
-    its three-channel copy, the frame at half resolution (the meter's statistics and the
-    chroma's source) with its luma, and the chroma at half and full resolution (int16)."""
+    """The chroma stage's planes for frames of ``height`` x ``width``: the luma (uint8)
+    and the chroma (float32)."""
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (int(height), int(width))
         h, w = self.shape
-        hh, hw = (h + 1) // 2, (w + 1) // 2
         self.luma = np.empty((h, w), np.uint8)
-        self.luma3 = np.empty((h, w, 3), np.uint8)
-        self.half = np.empty((hh, hw, 3), np.uint8)
-        self.half_luma = np.empty((hh, hw), np.uint8)
-        self.half_luma3 = np.empty((hh, hw, 3), np.uint8)
-        self.half_chroma = np.empty((hh, hw, 3), np.int16)
-        self.chroma = np.empty((h, w, 3), np.int16)
-
-
-#: Variance (full-resolution pixels squared) the 2 x 2 box and the bilinear
-#: upsampling's tent add to the chroma: 1/4 + 2/3.
-_SUBSAMPLING_VAR_PX2 = 0.25 + 2.0 / 3.0
-
-
-@functools.lru_cache(maxsize=16)
-def _chroma_kernel(sigma: float) -> np.ndarray:
-    """A normalised 1-D Gaussian of ``sigma`` half-resolution pixels (3 sigma each
-    side; the single tap 1 below a tenth of a pixel)."""
-    if sigma < 0.1:
-        return np.ones((1, 1), np.float32)
-    k = cv2.getGaussianKernel(2 * math.ceil(3.0 * sigma) + 1, sigma).astype(np.float32)
-    k.flags.writeable = False
-    return k
+        self.chroma = np.empty((h, w, 3), np.float32)

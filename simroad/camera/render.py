@@ -167,8 +167,7 @@ class CameraRenderer:
         self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
         self._band = np.empty((c.height - self._r0, c.width, 4), np.uint8)  # scratch: a warped band of colour
         # The sky the road reflects, times the world's gloss (nothing to add without gloss).
-        gloss = self.world.palette.sheen
-        self._sheen = _sheen.sheen_levels(_sheen.sheen_map(camera, self.sky, self._r0), gloss) if gloss > 0 else None
+        self._sheen = _sheen.sheen_map(camera, self.sky, self._r0)
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -245,8 +244,7 @@ class CameraRenderer:
             win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE
         )
         self._colour_bands(win, M, pose, motion_m, rgb)
-        if self._sheen is not None:
-            _sheen.add_sheen(rgb, road[r0:], self._sheen)
+        _sheen.add_sheen(rgb, road[r0:], self._sheen, self.world.palette.sheen)
         fr = self._fade_rows
         if fr.stop > fr.start:
             _raster.fade(rgb[fr], self._fade_alpha, self._haze)

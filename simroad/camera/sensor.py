@@ -44,7 +44,6 @@ from simroad.camera.exposure import (
     SENSOR_DECODE,
     ProcessingScratch,
     auto_exposure_update,
-    half_resolution,
     metered_mean,
     process_chroma,
     white_balance_gains,
@@ -136,8 +135,8 @@ def apply_sensor(
         (>= 0), and on a face only the pixels whose blur reaches another face or the
         ground (faces are flat-coloured). None: every pixel is blurred.
     processing_work : ProcessingScratch, optional
-        Scratch for the meter and the chroma stage (:class:`Sensor` keeps one per
-        episode; fresh planes when None).
+        Scratch for the chroma stage (:class:`Sensor` keeps one per episode; fresh
+        planes when None).
 
     Returns
     -------
@@ -206,13 +205,9 @@ def apply_sensor(
         blurred,
         *gain_row_buffers(w),
     )
-    # The meter and the chroma stage both read the frame at half resolution.
-    work2 = (
-        processing_work if processing_work is not None and processing_work.shape == (h, w) else ProcessingScratch(h, w)
-    )
-    measured = metered_mean(half_resolution(out, work2.half), top // 2)
+    measured = metered_mean(out, top)
     if params.saturation != 1.0 or params.chroma_denoise_px > 0.0:
-        process_chroma(out, params.saturation, params.chroma_denoise_px, scratch=work2, half_ready=True)
+        process_chroma(out, params.saturation, params.chroma_denoise_px, scratch=processing_work)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
