@@ -20,7 +20,7 @@ from simroad.core.validation import check_in_range
 __all__ = [
     "OVER_RANGE",
     "SENSOR_DECODE",
-    "ProcessingScratch",
+    "ChromaScratch",
     "auto_exposure_update",
     "metered_mean",
     "process_chroma",
@@ -120,7 +120,7 @@ def process_chroma(
     factor: float,
     denoise_px: float = 0.0,
     *,
-    scratch: ProcessingScratch | None = None,
+    scratch: ChromaScratch | None = None,
 ) -> None:
     """The chroma stage of a camera's processing, on the encoded frame ``out`` (uint8
     RGB, in place): the chroma ``c - Y`` about the luma (Rec. 601 weights) is smoothed
@@ -131,34 +131,30 @@ def process_chroma(
     is blind to fine colour detail; video codecs then keep chroma at half resolution,
     4:2:0): a grey road comes out grey, not speckled with colour. Consumer and
     automotive cameras then render colours 10-40 % more saturated than colorimetric
-    (a "preferred" reproduction). ``scratch`` (of ``out``'s size) holds the float
-    planes across frames (fresh ones when None).
-
-    (A half-resolution version on OpenCV's integer paths, 4x faster and within 3 levels
-    of this one, made the shipped detector, trained on these frames, leave racetrack
-    world 0: it waits for a detector retrained on its frames.)
+    (a "preferred" reproduction). ``scratch`` (of ``out``'s size) holds the planes of
+    the smoothing across frames (fresh ones when None).
     """
-    h, w = out.shape[:2]
-    if scratch is None or scratch.shape != (h, w):
-        scratch = ProcessingScratch(h, w)
-    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=scratch.luma)
-    if denoise_px > 0.0:
-        chroma = scratch.chroma
-        np.copyto(chroma, out, casting="unsafe")
-        chroma -= grey[:, :, None]
-        cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
-        chroma *= np.float32(factor)
-        chroma += grey[:, :, None]
-        np.clip(chroma, 0.0, 255.0, out=chroma)
-        np.rint(chroma, out=chroma)
-        np.copyto(out, chroma, casting="unsafe")
+    if denoise_px <= 0.0:
+        grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY)
+        cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
         return
-    cv2.addWeighted(out, float(factor), cv2.merge([grey, grey, grey]), 1.0 - float(factor), 0.0, dst=out)
+    if scratch is None or scratch.shape != out.shape[:2]:
+        scratch = ChromaScratch(*out.shape[:2])
+    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=scratch.luma)
+    chroma = scratch.chroma
+    np.copyto(chroma, out, casting="unsafe")
+    chroma -= grey[:, :, None]
+    cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
+    chroma *= np.float32(factor)
+    chroma += grey[:, :, None]
+    np.clip(chroma, 0.0, 255.0, out=chroma)
+    np.rint(chroma, out=chroma)
+    np.copyto(out, chroma, casting="unsafe")
 
 
-class ProcessingScratch:
-    """The chroma stage's planes for frames of ``height`` x ``width``: the luma (uint8)
-    and the chroma (float32)."""
+class ChromaScratch:
+    """The chroma smoothing's planes for frames of ``height`` x ``width``: the luma
+    (uint8) and the chroma (float32)."""
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (int(height), int(width))

@@ -166,8 +166,7 @@ class CameraRenderer:
         self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
         self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
         self._band = np.empty((c.height - self._r0, c.width, 4), np.uint8)  # scratch: a warped band of colour
-        # The sky the road reflects, times the world's gloss (nothing to add without gloss).
-        self._sheen = _sheen.sheen_map(camera, self.sky, self._r0)
+        self._sheen = _sheen.sheen_map(camera, self.sky, self._r0)  # the sky the road reflects
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -282,15 +281,11 @@ class CameraRenderer:
                         win.level(level),
                         Ma,
                         (c.width, hi - lo),
-                        dst=self._band_rows(hi - lo),
+                        dst=self._band[: hi - lo],
                         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                         borderMode=cv2.BORDER_REPLICATE,
                     )
                     cv2.cvtColor(band, cv2.COLOR_RGBA2RGB, dst=dst)
-
-    def _band_rows(self, rows: int) -> np.ndarray:
-        """Scratch for ``rows`` rows of a warped band (uint8 RGBA, the frame's width)."""
-        return self._band[:rows]
 
     # ------------------------------------------------------- motion blur
     def _ground_blur(self, motion_m: float) -> tuple[int, np.ndarray] | None:
@@ -330,7 +325,7 @@ class CameraRenderer:
             crop,
             offset @ Ma,
             (w, h),
-            dst=self._band_rows(h),
+            dst=self._band[:h],
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
             borderMode=cv2.BORDER_REPLICATE,
         )

@@ -42,7 +42,7 @@ from simroad.camera._sensor_ops import (
 )
 from simroad.camera.exposure import (
     SENSOR_DECODE,
-    ProcessingScratch,
+    ChromaScratch,
     auto_exposure_update,
     metered_mean,
     process_chroma,
@@ -100,7 +100,7 @@ def apply_sensor(
     white_balance: np.ndarray | None = None,
     work: np.ndarray | None = None,
     face_id: np.ndarray | None = None,
-    processing_work: ProcessingScratch | None = None,
+    chroma_work: ChromaScratch | None = None,
 ) -> tuple[np.ndarray, float]:
     """One frame through the sensor.
 
@@ -134,7 +134,7 @@ def apply_sensor(
         world's texture (``Frame.motion_m``), so the sensor smears only the faces
         (>= 0), and on a face only the pixels whose blur reaches another face or the
         ground (faces are flat-coloured). None: every pixel is blurred.
-    processing_work : ProcessingScratch, optional
+    chroma_work : ChromaScratch, optional
         Scratch for the chroma stage (:class:`Sensor` keeps one per episode; fresh
         planes when None).
 
@@ -207,7 +207,7 @@ def apply_sensor(
     )
     measured = metered_mean(out, top)
     if params.saturation != 1.0 or params.chroma_denoise_px > 0.0:
-        process_chroma(out, params.saturation, params.chroma_denoise_px, scratch=processing_work)
+        process_chroma(out, params.saturation, params.chroma_denoise_px, scratch=chroma_work)
     if params.jpeg_quality is not None:
         out = jpeg_roundtrip(out, params.jpeg_quality)
     return out, measured
@@ -268,7 +268,7 @@ class Sensor:
         self.target = params.ae_target_mean
         self.white_balance: np.ndarray | None = None
         self._work: np.ndarray | None = None
-        self._processing: ProcessingScratch | None = None
+        self._chroma: ChromaScratch | None = None
 
     def reset(self, rng: np.random.Generator | int, *, illuminant_k: float = 6504.0) -> None:
         """Start an episode: exposure back to nominal, noise field drawn from ``rng``,
@@ -280,7 +280,7 @@ class Sensor:
         p, c = self.params, self.camera.config
         self._noise = NoiseTile(c.height, c.width, rng) if (p.shot_noise or p.read_noise_e > 0.0) else None
         self._work = np.empty((c.height, c.width, 3), np.float32) if p.motion_blur else None
-        self._processing = ProcessingScratch(c.height, c.width)
+        self._chroma = ChromaScratch(c.height, c.width)
         # Drawn after the noise field (that stream is unchanged): the AWB's error, along
         # the daylight locus (in mired) and across it (a green or magenta tint).
         locus, tint = rng.normal(0.0, 1.0, 2) if (p.wb_error_mired > 0.0 or p.white_balance_error > 0.0) else (0, 0)
@@ -334,7 +334,7 @@ class Sensor:
             white_balance=self.white_balance,
             work=self._work,
             face_id=face_id,
-            processing_work=self._processing,
+            chroma_work=self._chroma,
         )
         self.ev = auto_exposure_update(self.ev, measured, self.params, target=self.target)
         return out

@@ -39,6 +39,11 @@ _WIDE, _NARROW = 0.2, 0.05
 _INNER_PER_FIELD = 5
 
 
+def _key(x: np.ndarray) -> bytes:
+    """A point of the unit box as a memo key (clipped into it, as the profile is)."""
+    return np.round(np.clip(x, 0.0, 1.0), 9).tobytes()
+
+
 class BlockSearch:
     """The search of :func:`~simroad.experiments.calibrate.calibrate_profile` (the
     module docstring has the plan).
@@ -92,7 +97,7 @@ class BlockSearch:
         memo: dict[bytes, float] = {}
 
         def objective(x: np.ndarray) -> float:
-            key = np.round(np.clip(x, 0.0, 1.0), 9).tobytes()
+            key = _key(x)
             if key not in memo:
                 if self.replays >= self.max_replays:
                     return math.inf
@@ -100,7 +105,7 @@ class BlockSearch:
             return memo[key]
 
         x0 = to_unit(base, self.camera)
-        memo[np.round(x0, 9).tobytes()] = base_objective
+        memo[_key(x0)] = base_objective
         self._nelder_mead(objective, x0, budget + 1, step)
         return min(memo.values())
 
@@ -112,7 +117,7 @@ class BlockSearch:
         inner = _INNER_PER_FIELD * len(self.camera) + 2 if self.camera else 0
 
         def objective(x: np.ndarray) -> float:
-            key = np.round(np.clip(x, 0.0, 1.0), 9).tobytes()
+            key = _key(x)
             if key not in memo:
                 if self.renders >= self.max_renders:
                     return math.inf
@@ -126,7 +131,7 @@ class BlockSearch:
             return memo[key]
 
         x0 = to_unit(base, self.world)
-        memo[np.round(x0, 9).tobytes()] = self.best[0]  # the base: rendered and searched already
+        memo[_key(x0)] = self.best[0]  # the base: rendered and searched already
         self._nelder_mead(objective, x0, renders_left + 1, _WIDE)
 
     @staticmethod

@@ -31,6 +31,7 @@ import numpy as np
 
 from simroad.camera.profile import CameraProfile
 from simroad.camera.sensor import Sensor, exposure_travel_m
+from simroad.camera.sensor_params import SensorParams
 from simroad.envs import RoadCamEnv
 from simroad.errors import InvalidParameterError
 from simroad.experiments.pool import run_in_workers
@@ -69,12 +70,13 @@ class WorldRecording:
     kept: dict[int, np.ndarray] = field(default_factory=dict)
 
 
-def _grab(env: RoadCamEnv, ev: float, starts: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, bool]:
+def _grab(
+    env: RoadCamEnv, params: SensorParams, ev: float, starts: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, bool]:
     """The current step's rendered frame, re-rendered as the episode rendered it
     (the ground blurred for the exposure ``ev`` the sensor had before this frame)."""
     speed = float(env.vehicle.speed)
-    assert env.sensor is not None  # record_world refuses an environment without one
-    fr = env.render_scene(motion_m=exposure_travel_m(env.sensor.params, speed, ev))
+    fr = env.render_scene(motion_m=exposure_travel_m(params, speed, ev))
     return fr.rgb, fr.depth, fr.face_id, speed, starts
 
 
@@ -91,23 +93,22 @@ def record_world(item: tuple[str, int, CameraProfile, int, int, Mapping[str, Any
     scenario, seed, profile, frames, every, options = item
     env = RoadCamEnv(scenario=scenario, noise="clear", **{**options, "camera_profile": profile})
     try:
-        if env.config.sensor_params is None:
+        params = env.config.sensor_params
+        if params is None:
             raise InvalidParameterError(
                 "env_options: camera_effects=False leaves no sensor to calibrate; drop camera_effects."
             )
         env.reset(seed=int(seed))
-        assert env.renderer is not None and env.sensor is not None  # reset, with the sensor on
-        rec = WorldRecording(scenario, int(seed), float(env.renderer.sky.illuminant_k))
-        rec.steps.append(_grab(env, 0.0, True))  # the reset's frame, at the nominal exposure
+        rec = WorldRecording(scenario, int(seed), float(env.renderer.sky.illuminant_k))  # type: ignore[union-attr]
+        rec.steps.append(_grab(env, params, 0.0, True))  # the reset's frame, at the nominal exposure
         rng = np.random.default_rng([int(seed), 7])
         for i in range(frames):
             for _ in range(every):
-                sensor = env.sensor
-                assert sensor is not None
-                ev = sensor.ev
+                sensor = env.sensor  # present after a reset with camera effects on
+                ev = sensor.ev  # type: ignore[union-attr]
                 _, info = drive_autopilot(env, 1, reset_seed=int(seed) + 10_000 + i, rng=rng, steer_noise=_STEER_NOISE)
                 starts = env.sensor is not sensor  # the episode ended and a new one began
-                rec.steps.append(_grab(env, 0.0 if starts else ev, starts))
+                rec.steps.append(_grab(env, params, 0.0 if starts else ev, starts))
             rec.kept[len(rec.steps) - 1] = info["road_mask"]
         return rec
     finally:
