@@ -12,6 +12,7 @@ import math
 import cv2
 import numpy as np
 
+from simroad.camera._chroma_kernel import chroma_merge, chroma_split
 from simroad.camera.sensor_params import SensorParams
 from simroad.core.daylight import CCT_RANGE_K, daylight_rgb, mired_mix
 from simroad.core.radiometry import DECODE_TABLE, GAMMA
@@ -140,24 +141,22 @@ def process_chroma(
         return
     if scratch is None or scratch.shape != out.shape[:2]:
         scratch = ChromaScratch(*out.shape[:2])
-    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY, dst=scratch.luma)
-    chroma = scratch.chroma
-    np.copyto(chroma, out, casting="unsafe")
-    chroma -= grey[:, :, None]
-    cv2.GaussianBlur(chroma, (0, 0), float(denoise_px), dst=chroma, borderType=cv2.BORDER_REFLECT)
-    chroma *= np.float32(factor)
-    chroma += grey[:, :, None]
-    np.clip(chroma, 0.0, 255.0, out=chroma)
-    np.rint(chroma, out=chroma)
-    np.copyto(out, chroma, casting="unsafe")
+    frame = out if out.flags.c_contiguous else np.ascontiguousarray(out)
+    grey = cv2.cvtColor(frame, cv2.COLOR_RGB2GRAY, dst=scratch.luma)
+    chroma_split(frame, grey, scratch.chroma, scratch.luma3)
+    cv2.GaussianBlur(scratch.chroma, (0, 0), float(denoise_px), dst=scratch.chroma, borderType=cv2.BORDER_REFLECT)
+    chroma_merge(scratch.chroma, scratch.luma3, np.float32(factor), frame)
+    if frame is not out:
+        out[...] = frame
 
 
 class ChromaScratch:
     """The chroma smoothing's planes for frames of ``height`` x ``width``: the luma
-    (uint8) and the chroma (float32)."""
+    (uint8), the chroma and the luma on three channels (float32)."""
 
     def __init__(self, height: int, width: int) -> None:
         self.shape = (int(height), int(width))
         h, w = self.shape
         self.luma = np.empty((h, w), np.uint8)
         self.chroma = np.empty((h, w, 3), np.float32)
+        self.luma3 = np.empty((h, w, 3), np.float32)

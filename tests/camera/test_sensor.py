@@ -5,12 +5,13 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import cv2
 import numpy as np
 import pytest
 
 from simroad.camera import CameraConfig, PinholeCamera, Sensor, SensorParams
 from simroad.camera._sensor_ops import NoiseTile, motion_blur_scale, radial_motion_blur
-from simroad.camera.exposure import metered_mean
+from simroad.camera.exposure import ChromaScratch, metered_mean, process_chroma
 from simroad.camera.sensor import apply_sensor
 from simroad.core.radiometry import GAMMA, linear_to_srgb, srgb_to_linear
 from simroad.envs import RoadCamConfig, RoadCamEnv
@@ -149,6 +150,46 @@ def test_the_meter_weighs_the_centre_and_lets_highlights_clip():
     plain = float(sky.mean()) / 255
     assert metered_mean(sky) < plain - 0.05  # the highlights count less than their share
     assert metered_mean(grey) == pytest.approx(float(grey.mean()) / 255, abs=0.03)
+
+
+def test_chroma_stage_by_hand_on_a_flat_colour():
+    # Flat (100, 150, 200): luma 0.299*100 + 0.587*150 + 0.114*200 = 140.75 -> 141 (OpenCV
+    # rounds); chroma (-41, 9, 59), unchanged by the Gaussian on a flat field (to float32's
+    # last bits); times 1.25 and back onto 141: (89.75, 152.25, 214.75) -> (90, 152, 215).
+    out = np.empty((20, 30, 3), np.uint8)
+    out[:] = (100, 150, 200)
+    process_chroma(out, 1.25, 2.0)
+    assert np.array_equal(out.reshape(-1, 3), np.tile([90, 152, 215], (600, 1)))
+    out[:] = (10, 150, 250)  # chroma x 3 saturates at 0 and 255 instead of wrapping
+    process_chroma(out, 3.0, 2.0)
+    assert out[0, 0, 0] == 0 and out[0, 0, 2] == 255
+
+
+def _chroma_reference(out: np.ndarray, factor: float, px: float) -> np.ndarray:
+    """The chroma stage step by step in numpy's float32 operations."""
+    grey = cv2.cvtColor(out, cv2.COLOR_RGB2GRAY).astype(np.float32)[:, :, None]
+    chroma = out.astype(np.float32) - grey
+    chroma = cv2.GaussianBlur(chroma, (0, 0), px, borderType=cv2.BORDER_REFLECT)
+    return np.rint(np.clip(chroma * np.float32(factor) + grey, 0.0, 255.0)).astype(np.uint8)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_chroma_stage_is_the_numpy_float32_steps_bit_for_bit(seed):
+    rng = np.random.default_rng(seed)
+    scratch = ChromaScratch(48, 64)
+    for _ in range(5):
+        img = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+        img = cv2.GaussianBlur(img, (0, 0), float(rng.uniform(0.0, 3.0))) if rng.random() < 0.5 else img
+        factor, px = float(rng.uniform(0.3, 2.5)), float(rng.uniform(0.3, 3.0))
+        expected = _chroma_reference(img, factor, px)
+        out = img.copy()
+        process_chroma(out, factor, px, scratch=scratch)
+        assert np.array_equal(out, expected)
+    wide = rng.integers(0, 256, (48, 128, 3), dtype=np.uint8)
+    view = wide[:, ::2]  # not contiguous: worked on a copy, written back
+    expected = _chroma_reference(np.ascontiguousarray(view), 1.3, 1.5)
+    process_chroma(view, 1.3, 1.5)
+    assert np.array_equal(view, expected)
 
 
 @pytest.mark.parametrize("roi_top", [0.0, 0.5])
