@@ -1,7 +1,7 @@
-"""The detector's masks over an episode are today's: the hashes in
-``data/glare_episode_masks.json`` were recorded at 79e036c, when the glare memory and
-the camera's ground mask lived in ``RoadDetector`` itself (``reset()``,
-``set_camera()``), before ``predict`` became pure and the episode an object of its own.
+"""The detector's masks over an episode stay as they were recorded: the hashes in
+``data/glare_episode_masks.json`` (written by ``record_episode_masks.py`` next to this
+file, when the frames or the shipped model change on purpose) hold any refactor of the
+detector, its episode state or the mask driver to the masks it gave before.
 
 Two sequences: a closed-loop glare episode on a winding road (160x90, the mask driver
 and all filters: the light filter removes a lobe, then the memory acts on the frames
