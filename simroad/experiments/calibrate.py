@@ -13,12 +13,17 @@ once and the camera's fields tried by exposing the recorded renders again
 of a dozen, which is what keeps the fit from learning the daylight draws of a few
 worlds instead of the camera. The daylight and asphalt fields change the world and
 are tried by rendering it again, in a block of their own (:func:`calibrate_profile`).
-The objective (:func:`calibration_objective`) is the mean, over the
+The objective (:class:`CalibrationObjective`) is the mean, over the
 statistics and the levels :data:`OBJECTIVE_LEVELS` (p10, p25, p50, p75, p90), of
-the absolute difference between the frames' and the photos' quantiles, each divided
-by the photos' p90 - p10 of that statistic (floored by :data:`_SCALE_FLOOR`): 0 is
-the same quantiles, 1 a miss by the photos' own spread. Quantiles move continuously
-with the profile where the KS distance steps, so the search sees a slope. The search
+the absolute difference between the frames' and the photos' quantiles, each in units
+of how surely the photos know that quantile: its standard error, bootstrapped from
+the photos, and at least :data:`UNIT_FLOOR` of the photos' p90 - p10 of the statistic.
+A quantile that a few hundred photos pin down loosely (the top of ``saturated``,
+``road_spread``) then counts less than one they pin down well, instead of pulling the
+tone curve after the photos' sampling noise (measured: with every quantile in units
+of the spread, the fit bent the tone curve from 1.3 to 1.15 to match the clipping of
+one sample, and the road's spread missed). Quantiles move continuously with the
+profile where the KS distance steps, so the search sees a slope. The search
 is scipy's Nelder-Mead on the fitted fields mapped to [0, 1] (the white balance in
 mired), starting from ``start`` (simroad's default profile), within
 :data:`~simroad.camera.profile.PROFILE_RANGES` (the sky's brightness within
@@ -56,6 +61,8 @@ from simroad.metrics.appearance import STATISTICS, frame_appearance
 __all__ = [
     "CALIBRATION_SEEDS",
     "OBJECTIVE_LEVELS",
+    "UNIT_FLOOR",
+    "CalibrationObjective",
     "CalibrationResult",
     "calibrate_from_photos",
     "calibrate_profile",
@@ -73,8 +80,14 @@ __all__ = [
 CALIBRATION_SEEDS = range(6000, 6050)
 #: Quantile levels the objective compares.
 OBJECTIVE_LEVELS = (0.1, 0.25, 0.5, 0.75, 0.9)
-#: Smallest scale of a statistic's quantile differences (a photo set with no spread in
-#: a statistic must not make its tiniest difference dominate the objective).
+#: The smallest unit of a quantile difference, as a share of the statistic's scale (the
+#: photos' p90 - p10): a photo set that pins a quantile down exactly must not make its
+#: tiniest difference dominate the objective.
+UNIT_FLOOR = 0.05
+#: Resamples of the photos that estimate each quantile's standard error.
+_BOOTSTRAP = 200
+#: Smallest scale of a statistic (a photo set with no spread in a statistic must not
+#: make its tiniest difference dominate the objective).
 _SCALE_FLOOR = {"road_b": 1.0, "road_a": 1.0, "saturated": 0.002}
 _DEFAULT_FLOOR = 0.02
 #: Objective term of a statistic the frames have no value of.
@@ -92,7 +105,7 @@ class CalibrationResult:
     profile, start : CameraProfile
         The fitted profile and the one the search started from.
     objective, start_objective : float
-        :func:`calibration_objective` of each (0: the frames' quantiles equal the photos').
+        :class:`CalibrationObjective` of each (0: the frames' quantiles equal the photos').
     ks, start_ks : dict
         ``{statistic: two-sample KS distance}`` between each profile's frames and the photos.
     fitted : tuple of str
@@ -165,28 +178,58 @@ def _scales(reference: Mapping[str, np.ndarray]) -> dict[str, float]:
     return out
 
 
-def calibration_objective(values: Mapping[str, Iterable[float]], reference: Mapping[str, Iterable[float]]) -> float:
-    """How far the frames' statistics lie from the photos' (0 = the same quantiles).
+class CalibrationObjective:
+    """How far frames' statistics lie from the photos' (0 = the same quantiles).
 
-    The mean over :data:`STATISTICS` and :data:`OBJECTIVE_LEVELS` of
-    ``|q_frames - q_photos| / scale``, ``scale`` the photos' p90 - p10 of the
-    statistic (at least 0.02; 1 for the Lab statistics, 0.002 for ``saturated``).
-    NaNs are left out; a statistic without any finite frame value adds 10.
+    Built once per photo set: ``objective(values)`` is the mean over
+    :data:`STATISTICS` and :data:`OBJECTIVE_LEVELS` of ``|q_frames - q_photos| / unit``,
+    ``unit`` the standard deviation of the photos' quantile over :data:`_BOOTSTRAP`
+    resamples of the photos (a generator seeded 0: the same photos, the same
+    objective), at least :data:`UNIT_FLOOR` times the photos' p90 - p10 of the
+    statistic (that at least 0.02; 1 for the Lab statistics, 0.002 for
+    ``saturated``). NaNs are left out; a statistic without any finite frame value adds
+    10 to the sum.
+
+    Parameters
+    ----------
+    reference : mapping
+        ``{statistic: per-photo values}``, a finite value of every statistic at least.
     """
-    ref = {s: _finite(reference.get(s, ())) for s in STATISTICS}
-    empty = [s for s, v in ref.items() if v.size == 0]
-    if empty:
-        raise InvalidParameterError(f"reference: no finite value of {', '.join(empty)}; a reference needs one each.")
-    scales = _scales(ref)
-    terms = []
-    for s in STATISTICS:
-        v = _finite(values.get(s, ()))
-        if v.size == 0:
-            terms.append(_MISSING_TERM)
-            continue
-        diff = np.quantile(v, OBJECTIVE_LEVELS) - np.quantile(ref[s], OBJECTIVE_LEVELS)
-        terms.append(float(np.mean(np.abs(diff))) / scales[s])
-    return float(np.mean(terms))
+
+    def __init__(self, reference: Mapping[str, Iterable[float]]) -> None:
+        ref = {s: _finite(reference.get(s, ())) for s in STATISTICS}
+        empty = [s for s, v in ref.items() if v.size == 0]
+        if empty:
+            raise InvalidParameterError(
+                f"reference: no finite value of {', '.join(empty)}; a reference needs one each."
+            )
+        scales = _scales(ref)
+        rng = np.random.default_rng(0)
+        levels = np.asarray(OBJECTIVE_LEVELS)
+        self.quantiles: dict[str, np.ndarray] = {}
+        self.units: dict[str, np.ndarray] = {}
+        for s in STATISTICS:
+            v = ref[s]
+            resampled = np.quantile(v[rng.integers(0, v.size, (_BOOTSTRAP, v.size))], levels, axis=1)
+            self.quantiles[s] = np.quantile(v, levels)
+            self.units[s] = np.maximum(resampled.std(axis=1), UNIT_FLOOR * scales[s])
+
+    def __call__(self, values: Mapping[str, Iterable[float]]) -> float:
+        terms = []
+        for s in STATISTICS:
+            v = _finite(values.get(s, ()))
+            if v.size == 0:
+                terms.append(_MISSING_TERM)
+                continue
+            diff = np.quantile(v, OBJECTIVE_LEVELS) - self.quantiles[s]
+            terms.append(float(np.mean(np.abs(diff) / self.units[s])))
+        return float(np.mean(terms))
+
+
+def calibration_objective(values: Mapping[str, Iterable[float]], reference: Mapping[str, Iterable[float]]) -> float:
+    """:class:`CalibrationObjective` of ``reference`` applied to ``values`` (for one
+    evaluation; a search builds the objective once)."""
+    return CalibrationObjective(reference)(values)
 
 
 def ks_distances(values: Mapping[str, Iterable[float]], reference: Mapping[str, Iterable[float]]) -> dict[str, float]:
@@ -268,9 +311,9 @@ def calibrate_profile(
         env_options, ("scenario", "noise", "severity", "camera_profile"),
         "set by the calibration (clear frames of its scenarios with the profile it tries); drop them.",
     )  # fmt: skip
-    calibration_objective({}, ref)  # refuses a reference without values before any rendering
+    objective = CalibrationObjective(ref)  # refuses a reference without values before any rendering
     search = BlockSearch(
-        lambda values: calibration_objective(values, ref),
+        objective,
         lambda profile: record_worlds(
             profile,
             scenarios=scenarios,

@@ -13,6 +13,9 @@ from simroad.camera.profile import PROFILE_RANGES, CameraProfile, load_profile
 from simroad.errors import InvalidParameterError
 from simroad.experiments import calibrate as calibrate_module
 from simroad.experiments.calibrate import (
+    OBJECTIVE_LEVELS,
+    UNIT_FLOOR,
+    CalibrationObjective,
     calibrate_from_photos,
     calibrate_profile,
     calibration_objective,
@@ -87,10 +90,28 @@ def test_objective_is_zero_for_the_same_values_and_grows_with_a_shift():
     assert calibration_objective(ref, ref) == 0.0
     small, large = calibration_objective(_values(0.02), ref), calibration_objective(_values(0.1), ref)
     assert 0.0 < small < large
-    # the unit is the photos' p10-p90 spread: road_V shifted by its spread costs 1, over 8 statistics
+    # Every quantile's unit is known here: 20 000 photos pin every quantile down to far
+    # less than the floor, UNIT_FLOOR of the spread (p90 - p10). road_V shifted by its
+    # spread then costs 1 / UNIT_FLOOR at every level, over 8 statistics.
+    ref = _values(n=20_000)
     spread = float(np.subtract(*np.quantile(ref["road_V"], [0.9, 0.1])))
     shifted = dict(ref, road_V=ref["road_V"] + spread)
-    assert calibration_objective(shifted, ref) == pytest.approx(1.0 / len(STATISTICS), rel=1e-6)
+    assert calibration_objective(shifted, ref) == pytest.approx(1.0 / UNIT_FLOOR / len(STATISTICS), rel=1e-6)
+
+
+def test_objective_units_are_the_photos_quantile_standard_errors():
+    # 40 photos from N(0.4, 0.1): the median's standard error is about
+    # sqrt(0.5 * 0.5 / 40) / phi(0) * 0.1 = 0.0198 (the asymptotic formula), above the
+    # floor (0.05 * 2.56 * 0.1 = 0.0128); the bootstrap's estimate of it is the unit.
+    objective = CalibrationObjective(_values(n=40))
+    median = OBJECTIVE_LEVELS.index(0.5)
+    assert objective.units["road_V"][median] == pytest.approx(0.0198, rel=0.3)
+    # A statistic whose top quantile the photos pin down loosely (a few clipped frames
+    # among many without) has a larger unit there than in the middle.
+    ref = _values(n=200)
+    ref["saturated"] = np.r_[np.zeros(170), np.random.default_rng(1).uniform(0.0, 0.3, 30)]
+    units = CalibrationObjective(ref).units["saturated"]
+    assert units[-1] > 3 * units[median]
 
 
 def test_objective_leaves_out_nans_and_penalises_a_statistic_without_values():
@@ -99,6 +120,8 @@ def test_objective_leaves_out_nans_and_penalises_a_statistic_without_values():
     assert calibration_objective(with_nans, ref) == 0.0
     missing = dict(ref, road_spread=np.array([np.nan]))
     assert calibration_objective(missing, ref) == pytest.approx(10.0 / len(STATISTICS))
+    with pytest.raises(InvalidParameterError, match="reference: no finite value of saturated"):
+        CalibrationObjective(dict(ref, saturated=[np.nan]))
     with pytest.raises(InvalidParameterError, match="reference: no finite value of road_V"):
         calibration_objective(ref, dict(ref, road_V=[]))
 
@@ -286,8 +309,7 @@ def test_recovers_a_known_profile_from_frames_it_rendered(tmp_path):
     )
     assert result.photos == 16 and result.frames == 8
     # At this size the objective has a floor near half the start's (8 frames against 16
-    # photos: measured 0.386 -> 0.208 with 150 replays, 0.201 with 300): a fit that
-    # gets most of the way there.
+    # photos: measured 3.96 -> 1.95 with 150 replays): a fit that gets most of the way there.
     assert result.objective < 0.6 * result.start_objective
     fitted, default = result.profile, CameraProfile()
     assert abs(fitted.exposure_bias_ev - TRUTH.exposure_bias_ev) < 0.5 * abs(default.exposure_bias_ev - 0.8)
