@@ -9,6 +9,7 @@ from typing import Any
 
 from simroad.core.validation import check_fields_in_range, check_int_in_range
 from simroad.envs.scenarios import ScenarioSpec
+from simroad.envs.tyres import EGO_GRIP_USE
 from simroad.errors import InvalidParameterError
 
 __all__ = ["ControllerConfig"]
@@ -97,8 +98,10 @@ class ControllerConfig:
     grip_use : float, in (0, 1]
         Fraction of the tyres' grip ``μ·g`` the driver plans with when it knows μ
         (``info["mu"]``): its braking and acceleration, and the lateral acceleration
-        of the curves it sees ahead, ``v <= sqrt(grip_use·μ·g / κ)``. 0.6 keeps the
-        dry road's 4.7 m/s^2 above the default braking (``max_decel_m_s2``).
+        of the curves it sees ahead, ``v <= sqrt(grip_use·μ·g / κ)``. The default,
+        :data:`simroad.envs.tyres.EGO_GRIP_USE` (0.6), is also the share the ego's
+        start speed is set with; it keeps the dry road's 4.7 m/s^2 above the default
+        braking (``max_decel_m_s2``).
     """
 
     lane_width_m: float = 3.5
@@ -131,7 +134,7 @@ class ControllerConfig:
     outlier_mad_factor: float = 3.0
     fit_rounds: int = 3
     edge_steps_m: tuple[float, ...] = ()
-    grip_use: float = 0.6
+    grip_use: float = EGO_GRIP_USE
 
     def __post_init__(self) -> None:
         ranges: dict[str, tuple[float, float, str, bool]] = {

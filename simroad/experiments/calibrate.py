@@ -389,7 +389,7 @@ def format_calibration(result: CalibrationResult) -> str:
     for s in STATISTICS:
         lines.append(f"{s:<20}  {_cell(result.start_ks[s]):>10}  {_cell(result.ks[s]):>9}")
     lines.append(
-        f"objective (mean quantile miss / photos' p10-p90 spread): {result.start_objective:.3f} -> "
+        f"objective (mean quantile miss in standard errors): {result.start_objective:.3f} -> "
         f"{result.objective:.3f}; {result.evaluations} profiles of {result.frames} frames each "
         f"({result.renders} renders); "
         f"{result.photos} photographs ({result.source})"

@@ -31,6 +31,9 @@ min_stopping_margin_m     gap to the vehicle ahead minus the stopping distance a
                           was ever ahead; see :mod:`simroad.metrics.safety`)
 slide_steps               policy steps in which the ego's tyres slid
 mean_speed_m_s            distance over time driven, m/s
+start_speed_m_s           the ego's speed after the reset, m/s: the scenario's
+                          cruise speed, lower where the grip does not allow it
+                          (:mod:`simroad.envs.tyres`)
 friction                  whether tyre–road friction limited the dynamics
                           (RoadCam's ``friction`` option)
 camera_profile            the camera the frames came from: the fields of the
@@ -87,7 +90,8 @@ RECORD_KEYS = (
     "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "fnr_image", "fpr_image", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
-    "route_completion", "min_ttc_s", "min_stopping_margin_m", "slide_steps", "mean_speed_m_s", "friction",
+    "route_completion", "min_ttc_s", "min_stopping_margin_m", "slide_steps", "mean_speed_m_s",
+    "start_speed_m_s", "friction",
     "camera_profile", "driving_score",
     "detect_ms_median", "step_ms_median", "wall_s",
 )  # fmt: skip
@@ -209,6 +213,7 @@ def run_episode(
         detector = load_detector(spec.detector, spec.detector_options, filters=spec.filters)
     pilot = make_driver(kind, env, filters=spec.filters, detector=detector)
     obs, info = env.reset(seed=spec.seed)
+    start_speed = float(env.vehicle.speed)
     pilot.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
@@ -255,6 +260,7 @@ def run_episode(
     for key in ("min_ttc_s", "min_stopping_margin_m"):
         if not math.isfinite(record[key]):
             record[key] = None
+    record["start_speed_m_s"] = start_speed
     record["friction"] = env.config.friction
     record["camera_profile"] = profile_record(env.config.camera_profile)
     record["detect_ms_median"] = float(np.median(detect_ms)) if detect_ms else 0.0

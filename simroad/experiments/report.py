@@ -65,6 +65,7 @@ METRICS = {
     "collision_rate": "collided",
     "lateral_rmse_m": "lateral_rmse_m",
     "mean_speed_m_s": "mean_speed_m_s",
+    "start_speed_m_s": "start_speed_m_s",
     "slide_steps": "slide_steps",
     "driving_score": "driving_score",
 }
@@ -100,7 +101,7 @@ def summarise(records: list[dict]) -> list[dict]:
         row["episodes"] = len(recs)
         row["failed"] = len(recs) - len(ok)
         for col, src in METRICS.items():
-            values = [r[src] for r in ok]
+            values = [r.get(src) for r in ok]  # None (left out) where a row predates the key
             row[col], row[f"{col}_lo"], row[f"{col}_hi"] = (
                 proportion_interval(values) if col == "collision_rate" else mean_interval(values)
             )
@@ -137,6 +138,7 @@ _MD_COLUMNS = {
     "collision_rate": ("collision %", 100, 1),
     "lateral_rmse_m": ("lat. RMSE m", 1, 3),
     "mean_speed_m_s": ("speed m/s", 1, 2),
+    "start_speed_m_s": ("start m/s", 1, 2),
     "slide_steps": ("slide steps", 1, 1),
     "driving_score": ("driving score", 1, 3),
 }

@@ -52,8 +52,9 @@ ROW_TYPES: dict[str, str] = {
     "camera_profile": "table",
     "error": "text|null",
 }
-#: Keys a row may lack (``camera_profile``: rows written before records held it).
-_OPTIONAL = ("error", "camera_profile")
+#: Keys a row may lack (``camera_profile``, ``start_speed_m_s``: rows written before
+#: records held them).
+_OPTIONAL = ("error", "camera_profile", "start_speed_m_s")
 
 
 def _is_number(v: Any) -> bool:

@@ -57,6 +57,7 @@ def _circle(mu: float, speed: float, radius: float = 50.0, seconds: float = 8.0)
     car = Vehicle(road, lane.position(0.0, 0.0), lane.heading_at(0.0), speed)
     road.vehicles.append(car)
     attach_grip(road, RoadGrip(mu))
+    car.speed = speed  # the friction circle under test, not the start speed attach_grip sets
     worst = 0.0
     for k in range(int(seconds / DT)):
         if k % 3 == 0:  # the policy rate: 5 Hz

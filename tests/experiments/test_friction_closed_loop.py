@@ -1,5 +1,5 @@
-"""Closed loop with tyre–road friction: the oracle slows down for the grip
-it has and stays on winding roads in rain and snow; a car that does not, slides off."""
+"""Closed loop with tyre–road friction: the oracle starts and drives at speeds its grip
+allows, on every surface, and stays on the road; a car that does not slow down slides off."""
 
 from __future__ import annotations
 
@@ -29,6 +29,31 @@ def test_oracle_slows_down_and_stays_on_winding_roads(noise, seed):
     assert rec["mean_speed_m_s"] < free["mean_speed_m_s"]  # it slows down: weather costs time
 
 
+#: (noise, severity, road_surface): every surface on a clear day, and the weather's own
+#: surface ("auto") in rain and snow at 0.8.
+SURFACES = [("clear", 0.0, s) for s in ("dry", "wet", "slush", "snow", "ice")] + [
+    ("rain", 0.8, "auto"),
+    ("snow", 0.8, "auto"),
+]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("noise", "severity", "surface"), SURFACES, ids=[f"{n}-{s}" for n, _, s in SURFACES])
+@pytest.mark.parametrize("scenario", ["winding", "town"])
+def test_oracle_never_slides_or_leaves_the_road_on_any_surface(scenario, noise, severity, surface):
+    # Issue 32: a car on ice no longer starts at the dry road's cruise speed and slides
+    # into the first curve. Worlds 0-9, 150 policy steps each.
+    bad = []
+    for seed in range(10):
+        rec = run_episode(
+            EpisodeSpec(scenario=scenario, noise=noise, severity=severity, driver="oracle", seed=seed, steps=150,
+                        env_options={**SMALL, "road_surface": surface})
+        )  # fmt: skip
+        if rec["slide_steps"] or rec["offroad_steps"] or rec["collided"]:
+            bad.append((seed, rec["slide_steps"], rec["offroad_steps"], rec["collided"], rec["start_speed_m_s"]))
+    assert not bad, f"(world, slide steps, off-road steps, collided, start speed): {bad}"
+
+
 def _fixed_speed_run(friction: bool, steps: int = 150) -> dict:
     """The ground-truth autopilot steering at the scenario's fixed 15 m/s (no speed
     control) on a winding road whose surface is packed snow (mu 0.25): its curves of
@@ -36,6 +61,7 @@ def _fixed_speed_run(friction: bool, steps: int = 150) -> dict:
     options = {"friction": friction, "road_surface": "snow"} if friction else {"friction": False}
     env = RoadCamEnv(scenario="winding", traffic=False, **SMALL, **options)
     env.reset(seed=0)
+    env.vehicle.speed = 15.0  # a car that does not slow down for the road (it would start slower)
     score = SafetyScore(dt=env.dt, route_length_m=1e9)
     for _ in range(steps):
         _, _, terminated, truncated, info = env.step([autopilot_action(env.highway_env.road, env.vehicle)])
