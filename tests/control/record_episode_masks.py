@@ -19,11 +19,9 @@ from pathlib import Path
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 
-from test_episode_masks import SETTINGS, frame_hash, mask_hash  # noqa: E402
+from test_episode_masks import SETTINGS, frame_hash, glare_loop, mask_hash  # noqa: E402
 
-from simroad.control import make_driver  # noqa: E402
 from simroad.detector import RoadDetector  # noqa: E402
-from simroad.envs import RoadCamEnv  # noqa: E402
 from simroad.experiments.frames import collect_frames  # noqa: E402
 from simroad.filters import FILTERS  # noqa: E402
 
@@ -32,23 +30,8 @@ STEPS = 40
 
 
 def loop(key: str) -> dict[str, list[str]]:
-    scenario, seed, severity = key.split("/")
-    env = RoadCamEnv(
-        scenario=scenario, noise="glare", severity=float(severity), longitudinal=True, width=160, height=90
-    )
-    pilot = make_driver("detector", env, filters=FILTERS)
-    obs, info = env.reset(seed=int(seed))
-    pilot.reset()
-    frames, masks = [], []
-    for _ in range(STEPS):
-        action = pilot(obs, info)
-        frames.append(frame_hash(obs))
-        masks.append(mask_hash(pilot.last_mask))
-        obs, _, terminated, truncated, info = env.step(action)
-        if terminated or truncated:
-            break
-    env.close()
-    return {"frames": frames, "masks": masks}
+    hashes = list(glare_loop(key, STEPS))
+    return {"frames": [f for f, _ in hashes], "masks": [m for _, m in hashes]}
 
 
 def sequence() -> dict:

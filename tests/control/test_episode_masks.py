@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -50,27 +51,37 @@ def _same_renderer(got: list[str], recorded: list[str]) -> None:
         pytest.skip("the renderer draws other frames on this platform than where the masks were recorded")
 
 
-@pytest.mark.parametrize("key", list(RECORD["loop"]))
-def test_a_closed_loop_glare_episode_gives_todays_masks(key):
+def glare_loop(key: str, steps: int) -> Iterator[tuple[str, str]]:
+    """(frame hash, mask hash) of each step of the closed-loop glare episode ``key``
+    (``scenario/seed/severity``; 160x90, the mask driver with every filter), until it
+    ends or after ``steps`` steps."""
     scenario, seed, severity = key.split("/")
-    rec = RECORD["loop"][key]
     env = RoadCamEnv(
         scenario=scenario, noise="glare", severity=float(severity), longitudinal=True, width=160, height=90
     )
     pilot = make_driver("detector", env, filters=FILTERS)
     obs, info = env.reset(seed=int(seed))
     pilot.reset()
+    try:
+        for _ in range(steps):
+            action = pilot(obs, info)
+            yield frame_hash(obs), mask_hash(pilot.last_mask)
+            obs, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                break
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("key", list(RECORD["loop"]))
+def test_a_closed_loop_glare_episode_gives_todays_masks(key):
+    rec = RECORD["loop"][key]
     frames, masks = [], []
-    for _ in range(len(rec["masks"])):
-        action = pilot(obs, info)
-        frames.append(frame_hash(obs))
-        masks.append(mask_hash(pilot.last_mask))
+    for frame, mask in glare_loop(key, len(rec["masks"])):
+        frames.append(frame)
+        masks.append(mask)
         if masks != rec["masks"][: len(masks)]:
             break  # the first difference decides: the frame (skip) or the mask (fail)
-        obs, _, terminated, truncated, info = env.step(action)
-        if terminated or truncated:
-            break
-    env.close()
     _same_renderer(frames, rec["frames"][: len(frames)])
     assert masks == rec["masks"]
 
