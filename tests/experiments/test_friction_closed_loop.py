@@ -42,11 +42,12 @@ SURFACES = [("clear", 0.0, s) for s in ("dry", "wet", "slush", "snow", "ice")] +
 @pytest.mark.parametrize("scenario", ["winding", "town"])
 def test_oracle_never_slides_or_leaves_the_road_on_any_surface(scenario, noise, severity, surface):
     # Issue 32: a car on ice no longer starts at the dry road's cruise speed and slides
-    # into the first curve. Worlds 0-9, 150 policy steps each.
+    # into the first curve. Worlds 0-9, 100 policy steps each (150 pass as well, measured
+    # 2026-12-05; 100 keep make test's time).
     bad = []
     for seed in range(10):
         rec = run_episode(
-            EpisodeSpec(scenario=scenario, noise=noise, severity=severity, driver="oracle", seed=seed, steps=150,
+            EpisodeSpec(scenario=scenario, noise=noise, severity=severity, driver="oracle", seed=seed, steps=100,
                         env_options={**SMALL, "road_surface": surface})
         )  # fmt: skip
         if rec["slide_steps"] or rec["offroad_steps"] or rec["collided"]:
