@@ -35,9 +35,8 @@ def test_detector_driver_stays_on_the_road(scenario, seed, route_m):
 
 # Racetrack world 100 with this look's traffic: in the tight left bend after 100 steps the
 # road fills the view, neither edge is in it, the path estimate degenerates to a constant
-# offset and the car drifts 1.7 m out (2 steps off the road). A planner weakness
-# (issue 32: drivers for the road they are on), not a perception one: the oracle reads
-# the ground truth.
+# offset and the car drifts 1.7 m out (2 steps off the road). A weakness of the lane
+# keeper's path reading, not of perception: the oracle reads the ground truth.
 _TIGHT_BEND = pytest.mark.xfail(strict=True, reason="racetrack world 100: no edge in view in a tight bend")
 
 
