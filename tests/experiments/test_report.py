@@ -160,3 +160,14 @@ def test_report_refuses_a_results_path_that_is_a_directory(tmp_path, capsys):
 def test_report_refuses_a_directory_that_is_not_a_path(directory):
     with pytest.raises(SimroadError, match=r"^dir: expected a directory path"):
         build_report(directory)
+
+
+def test_rows_written_before_the_start_speed_are_summarised_without_it():
+    old = [_record(seed=s, start_speed_m_s=None) for s in range(2)]
+    for r in old:
+        r.pop("start_speed_m_s")
+    new = [_record(seed=s, start_speed_m_s=v) for s, v in ((2, 10.0), (3, 12.0))]
+    (row,) = summarise(old + new)
+    assert row["episodes"] == 4 and row["start_speed_m_s"] == pytest.approx(11.0)  # the two that hold it
+    (row,) = summarise(old)
+    assert math.isnan(row["start_speed_m_s"])  # none holds it: no mean, not 0
