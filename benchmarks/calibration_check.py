@@ -10,9 +10,12 @@
    default one; the two-sample KS distance of each statistic to the photos.
 
 The bar: KS <= 0.15 on every statistic between the fitted profile's frames and the
-photos. At 200 against 200 frames the 5 % critical value of the two-sample KS test is
-0.136, so the bar is met only when the fit is close. Not part of ``make bench`` (it
-takes tens of minutes); run it directly::
+photos. With 400 photos against 200 check frames the 5 % critical value of the
+two-sample KS test is 0.118 (0.136 with 200 photos), so the bar is met only when the
+fit is close. 400 photos by default: with 200 the fit settled on a flatter tone curve
+and a darker asphalt that the objective scored better than the truth on those photos
+(road spread and road - surround KS 0.17). Not part of ``make bench`` (it takes tens of
+minutes); run it directly::
 
     python benchmarks/calibration_check.py --out runs/calibration-check
 """
@@ -75,7 +78,7 @@ def one_frame_per_world(profile: CameraProfile, seeds: range) -> tuple[list, lis
 
 def main(argv: list[str]) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--photo-worlds", type=int, default=50, help="worlds per scenario for the photos (default 50)")
+    p.add_argument("--photo-worlds", type=int, default=100, help="worlds per scenario for the photos (default 100)")
     p.add_argument("--check-worlds", type=int, default=50, help="worlds per scenario for the check (default 50)")
     p.add_argument("--fit-seeds", type=int, default=50, help="worlds per scenario per evaluation (default 50)")
     p.add_argument("--fit-frames", type=int, default=1, help="frames per world per evaluation (default 1)")
