@@ -63,21 +63,21 @@ def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
-@njit(cache=True)
-def _add(rgb, road, add, k, decode, encode):  # pragma: no cover - compiled
+@njit(cache=True, nogil=True)
+def _add(rgb, road, add, decode, encode):  # pragma: no cover - compiled
     h, w = road.shape
     top = rgb.shape[0] - h
     for y in range(h):
         for x in range(w):
             if road[y, x]:
                 for c in range(3):
-                    lin = decode[rgb[top + y, x, c]] + k * add[y, x, c]
+                    lin = decode[rgb[top + y, x, c]] + add[y, x, c]
                     i = int(lin * 4095.0 + 0.5)
                     rgb[top + y, x, c] = encode[min(i, 4095)]
 
 
-def add_sheen(rgb: np.ndarray, road: np.ndarray, sheen: np.ndarray, gloss: float) -> None:
-    """Add ``gloss * sheen`` (the map of :func:`sheen_map`) to the road pixels of the
-    bottom rows of ``rgb`` (uint8 (H, W, 3), in place); ``road`` is bool (H - r0, W)."""
-    if gloss > 0.0:
-        _add(rgb, road, sheen, np.float32(gloss), DECODE_TABLE, ENCODE_TABLE)
+def add_sheen(rgb: np.ndarray, road: np.ndarray, sheen: np.ndarray) -> None:
+    """Add ``sheen`` (linear radiance, float32 (H - r0, W, 3): :func:`sheen_map` times
+    the world's gloss, made once per episode) to the road pixels of the bottom rows of
+    ``rgb`` (uint8 (H, W, 3), in place); ``road`` is bool (H - r0, W)."""
+    _add(rgb, road, sheen, DECODE_TABLE, ENCODE_TABLE)

@@ -166,7 +166,9 @@ class CameraRenderer:
         self._gx, self._gy = np.ascontiguousarray(eg[..., 0]), np.ascontiguousarray(eg[..., 1])
         self._alpha = np.empty((c.height - self._r0, c.width), np.uint8)  # scratch: the warped road SDF
         self._band = np.empty((c.height - self._r0, c.width, 4), np.uint8)  # scratch: a warped band of colour
-        self._sheen = _sheen.sheen_map(camera, self.sky, self._r0)  # the sky the road reflects
+        # The sky the road reflects, times the world's gloss (nothing to add without gloss).
+        gloss = self.world.palette.sheen
+        self._sheen = np.float32(gloss) * _sheen.sheen_map(camera, self.sky, self._r0) if gloss > 0.0 else None
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""
@@ -243,7 +245,8 @@ class CameraRenderer:
             win.material, M, size, dst=material[r0:], flags=cv2.INTER_NEAREST | flags, borderMode=cv2.BORDER_REPLICATE
         )
         self._colour_bands(win, M, pose, motion_m, rgb)
-        _sheen.add_sheen(rgb, road[r0:], self._sheen, self.world.palette.sheen)
+        if self._sheen is not None:
+            _sheen.add_sheen(rgb, road[r0:], self._sheen)
         fr = self._fade_rows
         if fr.stop > fr.start:
             _raster.fade(rgb[fr], self._fade_alpha, self._haze)

@@ -21,7 +21,7 @@ the photos, and at least :data:`UNIT_FLOOR` of the photos' p90 - p10 of the stat
 A quantile that a few hundred photos pin down loosely (the top of ``saturated``,
 ``road_spread``) then counts less than one they pin down well, instead of pulling the
 tone curve after the photos' sampling noise (measured: with every quantile in units
-of the spread, the fit bent the tone curve from 1.3 to 1.15 to match the clipping of
+of the spread, the fit bent the tone curve from 1.3 to 1.19 to match the clipping of
 one sample, and the road's spread missed). Quantiles move continuously with the
 profile where the KS distance steps, so the search sees a slope. The search
 is scipy's Nelder-Mead on the fitted fields mapped to [0, 1] (the white balance in
