@@ -53,6 +53,23 @@ def test_offroad_when_a_corner_leaves_the_road():
     assert r["lateral_rmse_m"] == pytest.approx(math.sqrt(2 * 1.44 / 4))
 
 
+def test_a_car_across_two_lanes_is_on_the_road_and_off_it_past_the_outer_edge():
+    net = RoadNetwork()
+    net.add_lane("a", "b", StraightLane([0, 0], [500, 0], width=4.0))  # y in [-2, 2]
+    net.add_lane("a", "b", StraightLane([0, 4], [500, 4], width=4.0))  # y in [2, 6]
+    road = Road(net, np_random=np.random.default_rng(0))
+    v = Vehicle(road, [50.0, 2.0], 0.0, 10.0)  # on the shared edge: corners in both lanes
+    road.vehicles.append(v)
+    s = SafetyScore(dt=0.2, route_length_m=100.0)
+    s.update(road, v, _info())
+    assert s.offroad_steps == 0
+    v.position = np.array([50.0, 5.2])  # the outer corners at y = 6.2 > 6
+    s.update(road, v, _info())
+    v.position = np.array([50.0, -1.2])  # the outer corners at y = -2.2 < -2
+    s.update(road, v, _info())
+    assert s.offroad_steps == 2
+
+
 def test_time_to_collision_by_hand():
     road, (ego, _lead) = _road([(0.0, 0.0, 20.0), (30.0, 0.0, 10.0)])
     s = SafetyScore(dt=0.2, route_length_m=100.0)
