@@ -6,6 +6,11 @@ STAMP  := $(VENV)/.installed-$(shell cat pyproject.toml | cksum | cut -d' ' -f1)
 
 .PHONY: all demo paper test test-fast lint bench figures clean help
 
+# Python's bytecode cache on, whatever the shell says: with PYTHONDONTWRITEBYTECODE set
+# (some containers set it) every test worker, sweep worker and CLI subprocess compiles
+# simroad from source and pytest rewrites every test module again, on every run.
+unexport PYTHONDONTWRITEBYTECODE
+
 help:
 	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
 	@echo "make paper    the paper's experiment in closed loop, paired seeds on evaluation worlds (648 episodes, the longest job; runs/paper)"

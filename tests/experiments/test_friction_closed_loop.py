@@ -16,8 +16,7 @@ SMALL = {"width": 160, "height": 90, "scenery": 0.0, "camera_effects": False}
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("noise", ["rain", "snow"])
-@pytest.mark.parametrize("seed", [0, 1])
+@pytest.mark.parametrize(("seed", "noise"), [(0, "rain"), (1, "snow")])
 def test_oracle_slows_down_and_stays_on_winding_roads(noise, seed):
     spec = dict(scenario="winding", noise=noise, severity=0.8, driver="oracle", seed=seed, steps=250)
     rec = run_episode(EpisodeSpec(**spec, env_options=SMALL))
@@ -37,15 +36,21 @@ SURFACES = [("clear", 0.0, s) for s in ("dry", "wet", "slush", "snow", "ice")] +
 ]
 
 
+#: Worlds per scenario. On winding roads a car that started at the dry road's cruise
+#: speed slid into the first curve on ice in 9 of worlds 0-9 (measured with the start
+#: rule switched off); in the town, whose cruise speed its corners hold, none did on any
+#: surface: there the grid guards the oracle's general safety, on five worlds.
+WORLDS = {"winding": range(10), "town": range(5)}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(("noise", "severity", "surface"), SURFACES, ids=[f"{n}-{s}" for n, _, s in SURFACES])
 @pytest.mark.parametrize("scenario", ["winding", "town"])
 def test_oracle_never_slides_or_leaves_the_road_on_any_surface(scenario, noise, severity, surface):
-    # Issue 32: a car on ice no longer starts at the dry road's cruise speed and slides
-    # into the first curve. Worlds 0-9, 100 policy steps each (150 pass as well, measured
-    # 2026-12-05; 100 keep make test's time).
+    # A car on ice starts at the speed its road allows, not the dry road's cruise speed.
+    # 100 policy steps per world (150 pass as well, and town worlds 5-9: measured).
     bad = []
-    for seed in range(10):
+    for seed in WORLDS[scenario]:
         rec = run_episode(
             EpisodeSpec(scenario=scenario, noise=noise, severity=severity, driver="oracle", seed=seed, steps=100,
                         env_options={**SMALL, "road_surface": surface})
