@@ -8,7 +8,7 @@ from typing import Any
 
 from simroad.cli import types as T
 from simroad.cli.commands import seed_range
-from simroad.cli.env_options import add_worlds, default_of, names
+from simroad.cli.env_options import MASK_FORMATS, add_mask_format, add_worlds, default_of, names
 from simroad.cli.index import COMMANDS
 from simroad.experiments.calibrate import (
     calibrate_from_photos,
@@ -47,9 +47,10 @@ def add_calibrate(sub: Any) -> None:
         type=T.input_dir(),
         required=True,
         metavar="DIR",
-        help=f"their road masks: same file names, road white (> 127) on black; photos with fewer than "
+        help=f"their road masks, same file names: {MASK_FORMATS}; photos with fewer than "
         f"{MIN_ROAD_PIXELS} road pixels are left out",
     )
+    add_mask_format(p)
     p.add_argument(
         "--out", type=T.output_file(lambda: (".toml",)), required=True, metavar="TOML", help="the profile to write"
     )
@@ -93,6 +94,8 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     result = calibrate_from_photos(
         args.photos,
         args.masks,
+        road_value=args.road_value,
+        road_colour=args.road_colour,
         fit=tuple(args.fit),
         scenarios=args.scenarios,
         seeds=seed_range(args.seed_start, args.seeds),

@@ -28,7 +28,6 @@ from simroad.experiments.evaluate import (
     detector_factory,
     evaluate_detector,
     format_table,
-    load_image_folder,
     qualitative_figure,
 )
 from simroad.experiments.export import export_frames
@@ -38,6 +37,7 @@ from simroad.experiments.friction_figure import friction_figure
 from simroad.experiments.gallery import render_gallery, render_wiper_sequence
 from simroad.experiments.gate import check_requirements, parse_requirement
 from simroad.experiments.grid import AblationGrid, load_grid_file
+from simroad.experiments.photos import load_image_folder
 from simroad.experiments.report import build_report
 from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
 from simroad.experiments.training import train_detector
@@ -229,6 +229,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     else:
         refuse_flags(args, ("weather_seed", "hfov", "pitch", "mount_height", "plot"),
                      "without --images (they set the weather on photographs)")  # fmt: skip
+        refuse_flags(args, ("road_value", "road_colour"), "without --images (they read the masks of photographs)")
         if len(args.noise) != 1 or len(args.severity) != 1:
             raise InvalidParameterError(
                 "--noise/--severity: rendered frames have one weather and one severity; lists are for --images."
@@ -250,6 +251,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         frames_per_seed=args.frames,
         images=args.images or None,
         masks=args.masks or None,
+        road_value=args.road_value,
+        road_colour=args.road_colour,
         model=args.model,
         detector=args.detector,
         detector_options=parse_detector_options(args.detector_option),
@@ -276,7 +279,9 @@ def _evaluate_photos(args: argparse.Namespace) -> int:
         )
     noises = [n for n in args.noise if n != "clear"]
     factory = detector_factory(args.model, args.detector, parse_detector_options(args.detector_option))
-    frames = fit_to_camera(load_image_folder(args.images, args.masks))
+    frames = fit_to_camera(
+        load_image_folder(args.images, args.masks, road_value=args.road_value, road_colour=args.road_colour)
+    )
     mount = PhotoCamera(hfov_deg=args.hfov, pitch_deg=args.pitch, mount_height_m=args.mount_height)
     settings = [parse_filters(f) for f in args.filters.split(",") if f.strip()]
     rows, summary = robustness(frames, settings, noises, args.severity, factory, seed=args.weather_seed, mount=mount)

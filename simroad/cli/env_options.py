@@ -21,9 +21,25 @@ from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import ROAD_SURFACES, check_mu
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError, SimroadError
+from simroad.experiments.photos import check_road_colour
 from simroad.noise import WIPER_MODES, WindscreenParams
 
-__all__ = ["add_camera_profile", "add_env_options", "add_worlds", "default_of", "env_options", "names"]
+__all__ = [
+    "MASK_FORMATS",
+    "add_camera_profile",
+    "add_env_options",
+    "add_mask_format",
+    "add_worlds",
+    "default_of",
+    "env_options",
+    "names",
+]
+
+#: How the photo commands read road masks (their --masks help).
+MASK_FORMATS = (
+    "road white on black (0/255, grey edges read above mid-grey) or 1 on 0; a label image needs --road-value, "
+    "a colour mask --road-colour"
+)
 
 
 def default_of(owner: Callable[..., Any], name: str) -> Any:
@@ -136,6 +152,24 @@ def _profile(text: str) -> CameraProfile:
         return load_profile(text)
     except SimroadError as exc:
         raise argparse.ArgumentTypeError(str(exc).removeprefix("camera_profile: ")) from None
+
+
+def add_mask_format(p: argparse.ArgumentParser) -> None:
+    """``--road-value N`` or ``--road-colour R,G,B``: how to read masks that are label or
+    colour images (:func:`~simroad.experiments.photos.read_road_mask`)."""
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--road-value",
+        type=T.int_in(0, 65535),
+        metavar="N",
+        help="the masks are label images: the road is the value N (e.g. Cityscapes labelIds: 7)",
+    )
+    g.add_argument(
+        "--road-colour",
+        type=T.checked(check_road_colour, "colour"),
+        metavar="R,G,B",
+        help="the masks are colour images: the road is this colour, R,G,B or #RRGGBB (e.g. KITTI road: 255,0,255)",
+    )
 
 
 def add_camera_profile(g: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:

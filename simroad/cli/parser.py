@@ -15,7 +15,14 @@ from typing import Any
 from simroad.cli import commands
 from simroad.cli import types as T
 from simroad.cli.calibrate import add_calibrate
-from simroad.cli.env_options import add_camera_profile, add_env_options, default_of, names
+from simroad.cli.env_options import (
+    MASK_FORMATS,
+    add_camera_profile,
+    add_env_options,
+    add_mask_format,
+    default_of,
+    names,
+)
 from simroad.cli.index import COMMANDS, command_parser
 from simroad.cli.realism import add_realism
 from simroad.control.drivers import DRIVER_NAMES
@@ -320,9 +327,9 @@ def _add_detector(sub: Any) -> None:
         help=f"frames per scenario and seed (default: {d['frames_per_seed']})",
     )
     p.add_argument("--images", type=T.input_dir(), help="folder of real images (instead of rendered frames)")
-    p.add_argument(
-        "--masks", type=T.input_dir(), help="folder of their road masks (same file names, or road_N for frame_N)"
-    )
+    masks = f"folder of their road masks (same file names, or road_N for frame_N): {MASK_FORMATS}"
+    p.add_argument("--masks", type=T.input_dir(), help=masks)
+    add_mask_format(p)
     p.add_argument(
         "--model",
         type=T.input_file(),

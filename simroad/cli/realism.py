@@ -8,7 +8,7 @@ from typing import Any
 
 from simroad.cli import types as T
 from simroad.cli.commands import seed_range
-from simroad.cli.env_options import add_camera_profile, add_worlds, default_of
+from simroad.cli.env_options import MASK_FORMATS, add_camera_profile, add_mask_format, add_worlds, default_of
 from simroad.cli.index import COMMANDS
 from simroad.errors import InvalidParameterError
 from simroad.experiments.realism import (
@@ -76,9 +76,10 @@ def add_realism(sub: Any) -> None:
         "--masks",
         type=T.input_dir(),
         metavar="DIR",
-        help=f"with --photos: their road masks, same file names, road white (> 127) on black; photos with fewer "
+        help=f"with --photos: their road masks, same file names: {MASK_FORMATS}; photos with fewer "
         f"than {MIN_ROAD_PIXELS} road pixels are left out",
     )
+    add_mask_format(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_camera_profile(p)
     p.set_defaults(func=cmd_realism)
@@ -94,7 +95,13 @@ def cmd_realism(args: argparse.Namespace) -> int:
         raise InvalidParameterError(
             "--reference: a reference comes from a table file or from --photos/--masks, not both; drop one."
         )
-    reference = photo_reference(args.photos, args.masks) if args.photos is not None else args.reference
+    if args.photos is None and (args.road_value is not None or args.road_colour is not None):
+        raise InvalidParameterError("--road-value/--road-colour: read the masks of --photos/--masks; give those too.")
+    reference = (
+        photo_reference(args.photos, args.masks, road_value=args.road_value, road_colour=args.road_colour)
+        if args.photos is not None
+        else args.reference
+    )
     report = realism_report(
         scenarios=args.scenarios,
         seeds=seed_range(args.seed_start, args.seeds),

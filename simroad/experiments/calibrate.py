@@ -360,11 +360,19 @@ def _check_start(start: Any) -> CameraProfile:
     return start
 
 
-def calibrate_from_photos(photos: str | os.PathLike, masks: str | os.PathLike, **options: Any) -> CalibrationResult:
+def calibrate_from_photos(
+    photos: str | os.PathLike,
+    masks: str | os.PathLike,
+    *,
+    road_value: int | None = None,
+    road_colour: Sequence[int] | str | None = None,
+    **options: Any,
+) -> CalibrationResult:
     """:func:`calibrate_profile` against the statistics of a folder of photographs and
     their road masks (:func:`~simroad.experiments.realism.photo_statistics`, which
-    says what it refuses); ``options`` are :func:`calibrate_profile`'s."""
-    values, source = photo_statistics(photos, masks)
+    says what it refuses, and how ``road_value`` and ``road_colour`` read the masks);
+    ``options`` are :func:`calibrate_profile`'s."""
+    values, source = photo_statistics(photos, masks, road_value=road_value, road_colour=road_colour)
     return calibrate_profile(values, source=source, **options)
 
 

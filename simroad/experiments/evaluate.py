@@ -13,7 +13,6 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 
 from simroad.camera.profile import CameraProfile, resolve_profile
@@ -25,6 +24,7 @@ from simroad.envs import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError, SimroadError
 from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
+from simroad.experiments.photos import load_image_folder
 from simroad.experiments.video import overlay_frame
 from simroad.filters import format_filters, parse_filters, remove_highlights, remove_shadows
 from simroad.filters.pipeline import FILTER_REGISTRY, FILTERS
@@ -36,7 +36,6 @@ __all__ = [
     "evaluate_detector",
     "evaluate_frames",
     "format_table",
-    "load_image_folder",
     "model_factory",
     "qualitative_figure",
 ]
@@ -49,43 +48,6 @@ _MASK_DETECTORS: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shad
 #: Which ground-truth noise mask a filter's own detection mask is scored against: the
 #: weather the filter is registered for.
 FILTER_MASK_TRUTH = {name: FILTER_REGISTRY[name].weathers[0] for name in _MASK_DETECTORS}
-
-
-def load_image_folder(images: str | os.PathLike, masks: str | os.PathLike) -> FrameSet:
-    """Pair ``images/NAME.*`` with ``masks/NAME.*`` (road where the mask is > 127).
-
-    Mask files may also be named like ``road_0000.png`` for ``frame_0000.png`` (the
-    layout ``simroad frames`` writes); ``images`` and ``masks`` may then be one folder
-    (a mask file is never taken for an image).
-    """
-    idir, mdir = Path(images), Path(masks)
-    for name, d in (("images", idir), ("masks", mdir)):
-        if not d.is_dir():
-            raise InvalidParameterError(f"{name}: {str(d)!r} is not a directory.")
-    exts = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff"}
-    mask_files = {p.stem: p for p in mdir.iterdir() if p.suffix.lower() in exts}
-    out = FrameSet()
-    for p in sorted(q for q in idir.iterdir() if q.suffix.lower() in exts):
-        names = (p.stem, p.stem.replace("frame_", "road_"))
-        m = next((q for q in map(mask_files.get, names) if q is not None and q.resolve() != p.resolve()), None)
-        if m is None:
-            continue
-        bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
-        grey = cv2.imread(str(m), cv2.IMREAD_GRAYSCALE)
-        if bgr is None or grey is None:
-            raise InvalidParameterError(f"images: could not read {str(p)!r} or {str(m)!r}.")
-        if grey.shape != bgr.shape[:2]:
-            raise InvalidParameterError(
-                f"masks: {m.name} is {grey.shape[::-1]} but {p.name} is {bgr.shape[1::-1]} (width x height)."
-            )
-        out.images.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
-        out.masks.append(grey > 127)
-        out.noise_masks.append({})
-        out.valid.append(np.ones(grey.shape, bool))
-        out.source.append((p.name, 0, 0))
-    if not out.images:
-        raise InvalidParameterError(f"images: no image in {str(idir)!r} has a mask of the same name in {str(mdir)!r}.")
-    return out
 
 
 def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
@@ -220,6 +182,8 @@ def evaluate_detector(
     detector: str = "paper",
     detector_options: Mapping[str, Any] | None = None,
     camera_profile: CameraProfile | str | os.PathLike | None = None,
+    road_value: int | None = None,
+    road_colour: Sequence[int] | str | None = None,
 ) -> tuple[list[dict], list[dict]]:
     """Score a detector on held-out rendered frames, or on a folder of images and masks.
 
@@ -234,7 +198,11 @@ def evaluate_detector(
         the shipped model never saw), a frame every 4 policy steps; severity in [0, 1].
     images, masks : path, optional
         Folders of real images and their road masks (both or neither), read by
-        :func:`load_image_folder` instead of rendering.
+        :func:`~simroad.experiments.photos.load_image_folder` instead of rendering.
+    road_value, road_colour : optional
+        How to read label-image or colour masks
+        (:func:`~simroad.experiments.photos.read_road_mask`); black-and-white and 0/1
+        masks need neither.
     model : path, optional
         A detector ``.npz`` (e.g. from ``simroad train-detector``) instead of the
         shipped model.
@@ -264,12 +232,14 @@ def evaluate_detector(
                 "camera_profile: sets the camera of rendered frames; the images come from their own camera. "
                 "Drop one of them."
             )
+    elif road_value is not None or road_colour is not None:
+        raise InvalidParameterError("road_value: reads the masks of --images and --masks; give those too.")
     else:
         check_frame_protocol(scenarios=scenarios, seeds=seeds, noise=noise, severity=severity)
         check_int_in_range("frames_per_seed", frames_per_seed, 1, 100_000)
     factory = detector_factory(model, detector, detector_options)
     if images is not None and masks is not None:
-        frames = load_image_folder(images, masks)
+        frames = load_image_folder(images, masks, road_value=road_value, road_colour=road_colour)
     else:
         options = {} if camera_profile is None else {"camera_profile": resolve_profile(camera_profile)}
         frames = collect_frames(

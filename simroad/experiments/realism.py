@@ -29,9 +29,9 @@ from simroad.core.validation import check_int_in_range, check_output_dir, ensure
 from simroad.envs import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError
 from simroad.experiments._plotting import save_figure, start_figure
-from simroad.experiments.evaluate import load_image_folder
 from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import check_frame_protocol, collect_frames
+from simroad.experiments.photos import load_image_folder
 from simroad.metrics.appearance import (
     MIN_ROAD_PIXELS,
     STATISTICS,
@@ -244,13 +244,18 @@ def realism_report(
 
 
 def photo_statistics(
-    photos: str | os.PathLike, masks: str | os.PathLike, *, min_road_pixels: int = MIN_ROAD_PIXELS
+    photos: str | os.PathLike,
+    masks: str | os.PathLike,
+    *,
+    min_road_pixels: int = MIN_ROAD_PIXELS,
+    road_value: int | None = None,
+    road_colour: Sequence[int] | str | None = None,
 ) -> tuple[dict[str, np.ndarray], str]:
     """The appearance statistics of the user's own photographs, one value per photo.
 
     Pairs ``photos/NAME.*`` with ``masks/NAME.*`` as
-    :func:`~simroad.experiments.evaluate.load_image_folder` does (road where the mask
-    is > 127) and computes each photo's statistics
+    :func:`~simroad.experiments.photos.load_image_folder` does (its mask formats, and
+    ``road_value``, ``road_colour``) and computes each photo's statistics
     (:func:`~simroad.metrics.appearance.frame_appearance`). Photos with fewer than
     ``min_road_pixels`` road pixels are left out. Refuses, naming ``photos`` or
     ``masks``: a folder that is missing or holds no image with a mask, masks of
@@ -264,7 +269,7 @@ def photo_statistics(
         How many photos, from where, and how many were left out.
     """
     try:
-        loaded = load_image_folder(photos, masks)
+        loaded = load_image_folder(photos, masks, road_value=road_value, road_colour=road_colour)
     except InvalidParameterError as exc:  # name the parameters of this function
         text = str(exc)
         raise InvalidParameterError(
@@ -283,7 +288,7 @@ def photo_statistics(
     if n == 0:
         raise InvalidParameterError(
             f"masks: none of the {total} masks in {str(masks)!r} marks {min_road_pixels} or more road pixels "
-            f"(the most is {largest}); road must be white (> 127) on black, e.g. 0/255 PNGs."
+            f"(the most is {largest}); mark the road in them or lower min_road_pixels."
         )
     left_out = f" ({total - n} left out: fewer than {min_road_pixels} road pixels)" if n < total else ""
     if not any(np.isfinite(values["road_minus_surround"])):
@@ -295,12 +300,19 @@ def photo_statistics(
 
 
 def photo_reference(
-    photos: str | os.PathLike, masks: str | os.PathLike, *, min_road_pixels: int = MIN_ROAD_PIXELS
+    photos: str | os.PathLike,
+    masks: str | os.PathLike,
+    *,
+    min_road_pixels: int = MIN_ROAD_PIXELS,
+    road_value: int | None = None,
+    road_colour: Sequence[int] | str | None = None,
 ) -> AppearanceReference:
     """A reference from the user's own photographs and their road masks: the quantiles
     (:func:`~simroad.metrics.appearance.reference_from_values`) of their statistics
     (:func:`photo_statistics`, which says what it refuses)."""
-    values, source = photo_statistics(photos, masks, min_road_pixels=min_road_pixels)
+    values, source = photo_statistics(
+        photos, masks, min_road_pixels=min_road_pixels, road_value=road_value, road_colour=road_colour
+    )
     return reference_from_values(values, source)
 
 

@@ -87,9 +87,9 @@ def test_bad_options_are_refused_by_name(no_rendering, argv, words, tmp_path, ca
 @pytest.mark.parametrize(
     ("mask_of", "n", "words"),
     [
-        (lambda k, road: None, 3, "no image in"),
+        (lambda k, road: None, 3, "no mask in"),
         (lambda k, road: road[:32] if k == 1 else road, 3, "shot1.png is (96, 32) but shot1.png is (96, 64)"),
-        (lambda k, road: road * 0, 3, "none of the 3 masks in"),
+        (lambda k, road: road * 0, 3, "shot0.png marks no road pixel"),
         (lambda k, road: road, 0, "photos: no image in"),
     ],
     ids=["no-masks", "wrong-size", "no-road", "no-photos"],

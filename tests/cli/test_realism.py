@@ -110,9 +110,9 @@ def _photos(root: Path, mask_of) -> tuple[Path, Path]:
 @pytest.mark.parametrize(
     ("mask_of", "words"),
     [
-        (lambda k, road: None, "no image in"),
+        (lambda k, road: None, "no mask in"),
         (lambda k, road: road[:32] if k == 1 else road, "shot1.png is (96, 32) but shot1.jpg is (96, 64)"),
-        (lambda k, road: road * 0, "none of the 3 masks in"),
+        (lambda k, road: road * 0, "shot0.png marks no road pixel"),
     ],
     ids=["no-masks", "wrong-size", "no-road"],
 )

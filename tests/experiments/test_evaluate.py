@@ -8,14 +8,15 @@ import pytest
 
 from simroad import SimroadError
 from simroad.detector import RoadDetector
+from simroad.errors import InvalidParameterError
 from simroad.experiments.evaluate import (
     evaluate_detector,
     evaluate_frames,
     format_table,
-    load_image_folder,
     model_factory,
 )
 from simroad.experiments.frames import collect_frames
+from simroad.experiments.photos import load_image_folder
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +63,10 @@ def test_image_folder_and_model_file_give_the_same_rows(shadow_frames, tmp_path)
     for k, (img, gt) in enumerate(zip(shadow_frames.images, shadow_frames.masks)):
         cv2.imwrite(str(images / f"frame_{k:04d}.png"), cv2.cvtColor(img, cv2.COLOR_RGB2BGR))
         cv2.imwrite(str(masks / f"road_{k:04d}.png"), gt.astype(np.uint8) * 255)
-    (images / "unpaired.png").write_bytes((images / "frame_0000.png").read_bytes())  # no mask: skipped
+    (images / "unpaired.png").write_bytes((images / "frame_0000.png").read_bytes())
+    with pytest.raises(InvalidParameterError, match=r"no mask in .* for unpaired\.png"):
+        load_image_folder(images, masks)  # an image without a mask is named, not skipped
+    (images / "unpaired.png").unlink()
     folder = load_image_folder(images, masks)
     assert len(folder.images) == 2 and np.array_equal(folder.images[1], shadow_frames.images[1])
     assert np.array_equal(folder.masks[0], shadow_frames.masks[0]) and folder.valid[0].all()

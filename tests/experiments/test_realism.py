@@ -159,6 +159,12 @@ def test_photo_reference_refusals(tmp_path):
         photo_reference(photos, masks)
     for name in ("p0.png", "p1.png"):
         cv2.imwrite(str(masks / name), np.zeros((60, 80), np.uint8))
+    with pytest.raises(InvalidParameterError, match=r"masks: .*/p0\.png marks no road pixel"):
+        photo_reference(photos, masks)
+    for name in ("p0.png", "p1.png"):
+        few = np.zeros((60, 80), np.uint8)
+        few[50:55, 10:30] = 255  # 100 road pixels
+        cv2.imwrite(str(masks / name), few)
     with pytest.raises(InvalidParameterError, match=r"masks: none of the 2 masks in .*masks.* 500 or more"):
         photo_reference(photos, masks)
     for name in ("p0.png", "p1.png"):

@@ -18,6 +18,8 @@ import dataclasses
 import inspect
 from collections.abc import Callable
 
+import cv2
+import numpy as np
 import pytest
 
 from simroad.cli.main import main
@@ -133,6 +135,10 @@ EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("evaluate-detector", "model"): [("text file", "{file}")],
     ("realism", "reference"): [("not a quantile table", "{file}")],
     ("realism", "photos"): [("no photo with a mask", "{dir}")],
+    **{
+        (cmd, "road_colour"): [("not a colour", "red"), ("out of range", "300,0,0"), ("two channels", "255,0")]
+        for cmd in ("evaluate-detector", "realism", "calibrate")
+    },
 }
 
 #: Damaged model files (refused by name at load: a checksummed, validated format).
@@ -300,6 +306,7 @@ def image_folder(tmp_path):
     d = tmp_path / "images"
     d.mkdir()
     (d / "frame_0000.png").write_bytes(b"\x89PNG\r\n\x1a\n garbage, not an image")
+    cv2.imwrite(str(d / "road_0000.png"), np.full((8, 8), 255, np.uint8))  # its mask: the image is what fails
     return str(d)
 
 
