@@ -14,6 +14,8 @@ ResetNeededError           an object was used before ``reset()``       RuntimeEr
 OutputInUseError           another run holds the output folder         RuntimeError
 ModelFileError             a model file is missing, damaged or not     ValueError
                            a simroad model
+DetectorFailedError        a detector raised, or returned no mask,     RuntimeError
+                           while running (its cause chained)
 =========================  ==========================================  =====================
 
 The message of each says what was expected, what came, and how to fix it.
@@ -22,6 +24,7 @@ The message of each says what was expected, what came, and how to fix it.
 from __future__ import annotations
 
 __all__ = [
+    "DetectorFailedError",
     "InvalidParameterError",
     "MissingDependencyError",
     "ModelFileError",
@@ -53,3 +56,8 @@ class OutputInUseError(SimroadError, RuntimeError):
 
 class ModelFileError(SimroadError, ValueError):
     """A model file is missing, truncated, damaged, or not a simroad model."""
+
+
+class DetectorFailedError(SimroadError, RuntimeError):
+    """A detector raised, or returned something that is not a road mask, while running
+    (the command line's exit status 3: a component failed, not a bad input)."""

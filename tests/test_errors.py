@@ -10,7 +10,9 @@ import pytest
 
 from simroad.core.validation import check_in_range, check_int_in_range
 from simroad.detector import RoadDetector
+from simroad.detector.registry import predict_alone
 from simroad.errors import (
+    DetectorFailedError,
     InvalidParameterError,
     MissingDependencyError,
     ModelFileError,
@@ -22,7 +24,19 @@ from simroad.experiments._ray_backend import run_on_ray
 from simroad.experiments.outlock import OutputLock
 from simroad.noise import RainModel
 
-FAMILY = (InvalidParameterError, MissingDependencyError, ModelFileError, OutputInUseError, ResetNeededError)
+FAMILY = (
+    DetectorFailedError,
+    InvalidParameterError,
+    MissingDependencyError,
+    ModelFileError,
+    OutputInUseError,
+    ResetNeededError,
+)
+
+
+class _Raises:
+    def predict(self, image):
+        raise ZeroDivisionError("a bug in the detector")
 
 
 def _raised(fn):
@@ -53,8 +67,9 @@ def _no_ray(monkeypatch):
         ),
         (OutputInUseError, RuntimeError, lambda tmp, mp: (OutputLock(tmp).acquire(), OutputLock(tmp).acquire())),
         (MissingDependencyError, ImportError, lambda tmp, mp: list(_no_ray(mp))),
+        (DetectorFailedError, RuntimeError, lambda tmp, mp: predict_alone(_Raises(), np.zeros((8, 8, 3), np.uint8))),
     ],
-    ids=["value", "type", "reset", "model-file", "output-in-use", "missing-extra"],
+    ids=["value", "type", "reset", "model-file", "output-in-use", "missing-extra", "detector-failed"],
 )
 def test_each_situation_raises_its_own_class(cls, builtin, make, tmp_path, monkeypatch):
     err = _raised(lambda: make(tmp_path, monkeypatch))
@@ -62,6 +77,13 @@ def test_each_situation_raises_its_own_class(cls, builtin, make, tmp_path, monke
     assert isinstance(err, builtin)
     others = [c for c in FAMILY if c is not cls]
     assert not isinstance(err, tuple(others)), "caught apart: no error is two of the family"
+
+
+def test_a_detector_failure_names_the_detector_and_where_it_raised():
+    with pytest.raises(DetectorFailedError, match=r"'_Raises': predict\(\) raised ZeroDivisionError: a bug in the "
+                       r"detector at test_errors\.py:\d+") as caught:  # fmt: skip
+        predict_alone(_Raises(), np.zeros((8, 8, 3), np.uint8))
+    assert isinstance(caught.value.__cause__, ZeroDivisionError)
 
 
 def test_the_command_line_maps_every_family_member_to_exit_2(capsys):

@@ -38,7 +38,7 @@ from simroad.experiments.gallery import render_gallery, render_wiper_sequence
 from simroad.experiments.gate import check_requirements, parse_requirement
 from simroad.experiments.grid import AblationGrid, load_grid_file
 from simroad.experiments.photos import load_image_folder
-from simroad.experiments.report import build_report
+from simroad.experiments.report import build_report, failed_components
 from simroad.experiments.robustness import PhotoCamera, fit_to_camera, robustness, robustness_figure
 from simroad.experiments.training import train_detector
 from simroad.filters.pipeline import parse_filters
@@ -190,7 +190,10 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         f"{len(records)} episodes in {out}/results.jsonl ({failed} failed); report: "
         + ", ".join(str(p) for p in paths.values())
     )
-    return 0
+    for f in failed_components(records):
+        print(f"simroad ablate: {f['driver']} (filters {f['filters']}): {f['failed']} of {f['episodes']} episodes "
+              f"failed, first: {f['error']} (all in {paths['summary.md']})", file=sys.stderr)  # fmt: skip
+    return 3 if failed else 0
 
 
 def cmd_report(args: argparse.Namespace) -> int:

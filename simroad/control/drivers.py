@@ -22,7 +22,7 @@ from simroad.camera.geometry import PinholeCamera
 from simroad.control.config import ControllerConfig
 from simroad.control.lane_keeping import MaskLaneKeeper
 from simroad.core.validation import check_choice
-from simroad.detector.registry import check_prediction, load_detector, start_episode
+from simroad.detector.registry import load_detector, predict_checked, start_episode
 from simroad.envs import RoadCamEnv
 from simroad.envs.scenarios import get_scenario
 from simroad.errors import InvalidParameterError
@@ -86,7 +86,7 @@ class MaskDriver:
         else:
             if self.episode is None:
                 self.episode = start_episode(self.detector, self.camera)
-            mask = check_prediction(self.episode.predict(obs), obs.shape[:2], self.detector)
+            mask = predict_checked(self.episode, obs, self.detector)
         self.last_mask = mask
         return self.controller.act(mask, float(info["speed_m_s"]), mu=info.get("mu"))
 

@@ -50,6 +50,7 @@ import importlib.metadata
 import importlib.util
 import inspect
 import sys
+import traceback
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -58,7 +59,7 @@ import numpy as np
 
 from simroad import __version__
 from simroad.detector.detector import RoadDetector
-from simroad.errors import InvalidParameterError, SimroadError
+from simroad.errors import DetectorFailedError, InvalidParameterError, SimroadError
 from simroad.filters import apply_filters, format_filters
 from simroad.filters.pipeline import check_filters, check_variant
 
@@ -74,6 +75,7 @@ __all__ = [
     "load_detector",
     "parse_detector_options",
     "predict_alone",
+    "predict_checked",
     "register",
     "resolve_factory",
     "start_episode",
@@ -397,20 +399,38 @@ def predict_alone(detector: Any, image: np.ndarray) -> np.ndarray:
     """The detector's bool (H, W) mask of one frame on its own: the first frame of a new
     episode without a camera (:func:`start_episode`), as when frames from different
     episodes are scored one at a time."""
-    return check_prediction(start_episode(detector).predict(image), image.shape[:2], detector)
+    return predict_checked(start_episode(detector), image, detector)
+
+
+def predict_checked(episode: Any, image: np.ndarray, detector: Any) -> np.ndarray:
+    """``episode.predict(image)`` as a bool (H, W) mask (:func:`check_prediction`); an
+    exception the detector raises becomes a :class:`~simroad.errors.DetectorFailedError`
+    that names the detector and where it raised (the original chained)."""
+    try:
+        out = episode.predict(image)
+    except (KeyboardInterrupt, SimroadError):
+        raise
+    except Exception as exc:
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = f" at {Path(tb[-1].filename).name}:{tb[-1].lineno}" if tb else ""
+        raise DetectorFailedError(
+            f"detector {describe(detector)['name']!r}: predict() raised {type(exc).__name__}: {exc}{where}."
+        ) from exc
+    return check_prediction(out, image.shape[:2], detector)
 
 
 def check_prediction(mask: Any, shape: tuple[int, int], detector: Any) -> np.ndarray:
-    """A detector's output as a bool (H, W) mask, or a clear error naming the detector."""
+    """A detector's output as a bool (H, W) mask, or a
+    :class:`~simroad.errors.DetectorFailedError` naming the detector."""
     arr = np.asarray(mask)
     if arr.shape != tuple(shape):
-        raise InvalidParameterError(
+        raise DetectorFailedError(
             f"detector {describe(detector)['name']!r}: predict() returned shape {arr.shape}, expected the "
             f"frame's {tuple(shape)} (a bool road mask)."
         )
     if arr.dtype != np.bool_:
         if arr.dtype.kind not in "biu":
-            raise InvalidParameterError(
+            raise DetectorFailedError(
                 f"detector {describe(detector)['name']!r}: predict() returned {arr.dtype}, expected a bool mask "
                 "(threshold scores yourself, e.g. scores > 0.5)."
             )

@@ -19,6 +19,10 @@ and every episode depends only on its spec and seed, so the numbers are the same
 whatever the backend or the number of workers. On Ray a cell whose node dies is
 rerun elsewhere (:mod:`simroad.experiments._ray_backend`); rows are still written by
 this process only.
+
+Before the first episode every detector of the cells to run predicts one frame of
+their world (:func:`preflight_detectors`): a detector that cannot be built, raises or
+returns no mask stops the sweep at once, by name, instead of failing cell by cell.
 """
 
 from __future__ import annotations
@@ -30,16 +34,17 @@ from collections.abc import Callable, Generator, Iterator
 from typing import Any
 
 from simroad.core.validation import check_choice, check_int_in_range, ensure_writable_dir
-from simroad.errors import InvalidParameterError
+from simroad.detector.registry import load_detector, predict_checked, start_episode
+from simroad.errors import DetectorFailedError, InvalidParameterError
 from simroad.experiments._ray_backend import run_on_ray
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, profile_record, run_episode
+from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, episode_env, profile_record, run_episode
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import OutputLock
 from simroad.experiments.pool import Interrupts, default_workers, run_in_workers
 from simroad.experiments.results import ResultStore  # re-exported here for old imports
 from simroad.filters.pipeline import format_filters
 
-__all__ = ["BACKENDS", "run_ablation", "run_cell"]
+__all__ = ["BACKENDS", "preflight_detectors", "run_ablation", "run_cell"]
 
 BACKENDS = ("local", "ray")
 
@@ -77,6 +82,40 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
         )  # fmt: skip
         record["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}"
     return record
+
+
+def preflight_detectors(specs: list[EpisodeSpec]) -> None:
+    """Build each detector the detector cells of ``specs`` name (with its options and
+    filters) and predict the first frame of the first such cell's world with it.
+
+    Raises :class:`~simroad.errors.InvalidParameterError` for a detector that cannot
+    be built and :class:`~simroad.errors.DetectorFailedError` for one that raises or
+    returns no mask, naming the detector and the frame. One reset per distinct world
+    configuration; the detectors stay cached for this process's episodes."""
+    tried: set[tuple] = set()
+    frames: dict[tuple, tuple[Any, Any]] = {}
+    for spec in specs:
+        if spec.driver != "detector":
+            continue
+        key = (spec.detector, repr(sorted(spec.detector_options.items())), spec.filters)
+        if key in tried:
+            continue
+        tried.add(key)
+        world = (spec.scenario, spec.noise, spec.severity, spec.seed, spec.traffic, repr(spec.env_options))
+        if world not in frames:
+            env = episode_env(spec)
+            obs, _ = env.reset(seed=spec.seed)
+            frames[world] = (obs, env.camera)
+            env.close()
+        obs, camera = frames[world]
+        detector = load_detector(spec.detector, spec.detector_options, filters=spec.filters)
+        try:
+            predict_checked(start_episode(detector, camera), obs, detector)
+        except DetectorFailedError as exc:
+            raise DetectorFailedError(
+                f"{exc} It failed on the first frame of {spec.scenario}, {spec.noise}, seed {spec.seed}, before "
+                "the sweep started: no episode was run."
+            ) from exc
 
 
 def _one_thread() -> None:
@@ -126,7 +165,8 @@ def run_ablation(
     top-level function of an importable module (with ``workers > 1`` the workers
     start from a fork server and import it; not a notebook's function). The output directory is locked for the whole run
     (:class:`~simroad.experiments.outlock.OutputLock`): a second sweep on it raises
-    :class:`~simroad.errors.OutputInUseError` naming the holder's PID.
+    :class:`~simroad.errors.OutputInUseError` naming the holder's PID. With the default
+    ``cell_fn``, :func:`preflight_detectors` runs before the first episode.
     """
 
     if not isinstance(grid, AblationGrid):
@@ -144,6 +184,8 @@ def run_ablation(
         store = ResultStore(out)
         done = store.open(grid, fresh=fresh)
         todo = [s for s in specs if cell_key(s) not in done]
+        if cell_fn is run_cell:  # real episodes: try every detector on one frame first
+            preflight_detectors(todo)
         from tqdm import tqdm
 
         bar = tqdm(

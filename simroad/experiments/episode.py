@@ -82,7 +82,7 @@ from simroad.filters import format_filters, parse_filters  # re-exported here fo
 from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
-__all__ = ["RECORD_KEYS", "EpisodeSpec", "profile_record", "run_episode"]
+__all__ = ["RECORD_KEYS", "EpisodeSpec", "episode_env", "profile_record", "run_episode"]
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
@@ -177,6 +177,14 @@ _MAX_DURATION_S = 1e3
 _ROUTE_SPEED_FRACTION = 0.8
 
 
+def episode_env(spec: EpisodeSpec) -> RoadCamEnv:
+    """The environment :func:`run_episode` drives ``spec`` in (not yet reset)."""
+    period = get_scenario(spec.scenario).policy_period_s
+    duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)
+    return RoadCamEnv(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, longitudinal=True,
+                      traffic=spec.traffic, duration_s=duration_s, **spec.env_options)  # fmt: skip
+
+
 def run_episode(
     spec: EpisodeSpec,
     *,
@@ -204,10 +212,7 @@ def run_episode(
     if video is not None:
         check_output_file("video", video, suffixes=(".mp4", ".gif"))
     t_start = time.perf_counter()
-    period = get_scenario(spec.scenario).policy_period_s
-    duration_s = _MAX_DURATION_S if spec.steps * period > _MAX_DURATION_S else max(period, spec.steps * period)
-    env = RoadCamEnv(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, longitudinal=True,
-                     traffic=spec.traffic, duration_s=duration_s, **spec.env_options)  # fmt: skip
+    env = episode_env(spec)
     kind = driver if driver is not None else spec.driver
     if kind == "detector" and detector is None:
         detector = load_detector(spec.detector, spec.detector_options, filters=spec.filters)

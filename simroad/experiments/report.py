@@ -52,7 +52,7 @@ from simroad.experiments.stats import (
     proportion_interval,
 )
 
-__all__ = ["METRICS", "build_report", "headline", "summarise"]
+__all__ = ["METRICS", "build_report", "failed_components", "headline", "summarise"]
 
 #: Summary column -> record key (collision rate is the rate of ``collided``).
 METRICS = {
@@ -255,6 +255,39 @@ def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list
     return cells
 
 
+def failed_components(records: list[dict]) -> list[dict]:
+    """The failed episodes grouped by what drove them: one dict per detector spec (or
+    ``oracle``) and filter set with ``failed``, ``episodes`` (of that group), ``cells``
+    (scenario/noise/severity/seed of each failed one) and ``error`` (the first line of
+    the first failure's message)."""
+    groups: dict[tuple[str, str], dict] = {}
+    for r in records:
+        who = r.get("detector_spec") or r.get("detector") or r.get("driver", "")
+        g = groups.setdefault((str(who), str(r.get("filters", ""))), {"episodes": 0, "failed": 0, "cells": []})
+        g["episodes"] += 1
+        if r.get("error"):
+            g["failed"] += 1
+            g["cells"].append(f"{r['scenario']}/{r['noise']}/{r['severity']:g}/seed {r['seed']}")
+            g.setdefault("error", str(r["error"]).splitlines()[0])
+    return [{"driver": k[0], "filters": k[1], **g} for k, g in groups.items() if g["failed"]]
+
+
+def _write_failed(records: list[dict], path: Path) -> None:
+    """Append the failed episodes, by detector and filter set, to summary.md."""
+    failed = failed_components(records)
+    if not failed:
+        return
+    total = sum(f["failed"] for f in failed)
+    lines = [f"\n## Failed episodes ({total})\n"]
+    for f in failed:
+        every = " (every one)" if f["failed"] == f["episodes"] else ""
+        cells = ", ".join(f["cells"][:10]) + (f" and {len(f['cells']) - 10} more" if len(f["cells"]) > 10 else "")
+        lines.append(f"- **{f['driver']}**, filters {f['filters']}: {f['failed']} of {f['episodes']} failed{every} — "
+                     f"{cells}. First error: `{f['error']}`")  # fmt: skip
+    with open(path, "a") as fh:
+        fh.write("\n".join(lines) + "\n")
+
+
 def _write_bad_lines(bad: list[BadLine], path: Path) -> None:
     """Append the lines that were not used to summary.md."""
     lines = [f"- {b}" for b in bad]
@@ -309,6 +342,7 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
     _write_csv(paired, out["paired.csv"])
     out["paired.json"].write_text(json.dumps(paired, indent=1, default=str))
     _write_md(records, rows, paired, out["summary.md"])
+    _write_failed(records, out["summary.md"])
     if bad:
         _write_bad_lines(bad, out["summary.md"])
     error_rates_figure(records, out["error_rates.png"])

@@ -140,5 +140,9 @@ def paired_figure(paired: list[dict], path: Path) -> None:
         title = "Filters − none, paired by world and seed (mean, 95 % bootstrap CI)"
         ax.set_title(f"{det}: {title}" if len(dets) > 1 else title, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
-        ax.legend(fontsize=7, ncol=2)
+        if settings:
+            ax.legend(fontsize=7, ncol=2)
+        else:  # e.g. --filters none: no filter set to pair with no filters
+            ax.text(0.5, 0.5, "no paired comparison in this sweep:\nadd a filter set (e.g. --filters none,all)",
+                    ha="center", va="center", transform=ax.transAxes)  # fmt: skip
     _save(fig, path)
