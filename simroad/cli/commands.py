@@ -99,7 +99,7 @@ def cmd_frames(args: argparse.Namespace) -> int:
 
 def cmd_episode(args: argparse.Namespace) -> int:
     """``simroad episode``: run one episode, print its record, check ``--require`` gates."""
-    gated = [k for k in RECORD_KEYS if k != "camera_profile"]  # a table, not a number
+    gated = [k for k in RECORD_KEYS if k not in ("camera_profile", "detector_options", "env_options")]  # tables
     requirements = [parse_requirement(r, valid_keys=gated) for r in args.require]
     if args.driver == "oracle" and parse_filters(args.filters):
         refuse_flags(args, ("filters",), "with --driver oracle (it drives on the ground-truth mask, no detector)")

@@ -37,7 +37,14 @@ from simroad.core.validation import check_choice, check_int_in_range, ensure_wri
 from simroad.detector.registry import load_detector, predict_checked, start_episode
 from simroad.errors import DetectorFailedError, InvalidParameterError
 from simroad.experiments._ray_backend import run_on_ray
-from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, episode_env, profile_record, run_episode
+from simroad.experiments.episode import (
+    RECORD_KEYS,
+    EpisodeSpec,
+    episode_env,
+    options_record,
+    profile_record,
+    run_episode,
+)
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import OutputLock
 from simroad.experiments.pool import Interrupts, default_workers, run_in_workers
@@ -79,6 +86,8 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
             detector="", detector_version="", detector_spec=spec.detector if spec.driver == "detector" else "",
             friction=spec.env_options.get("friction", True),
             camera_profile=profile_record(spec.env_options.get("camera_profile")),
+            detector_options=options_record(spec.detector_options) if spec.driver == "detector" else {},
+            env_options=options_record({k: v for k, v in spec.env_options.items() if k != "camera_profile"}),
         )  # fmt: skip
         record["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=4)}"
     return record

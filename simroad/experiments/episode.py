@@ -56,6 +56,7 @@ frame (the ground truth is non-road wherever the camera does not see the ground)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -82,17 +83,17 @@ from simroad.filters import format_filters, parse_filters  # re-exported here fo
 from simroad.metrics.mask import MaskScore
 from simroad.metrics.safety import SafetyScore
 
-__all__ = ["RECORD_KEYS", "EpisodeSpec", "episode_env", "profile_record", "run_episode"]
+__all__ = ["RECORD_KEYS", "EpisodeSpec", "episode_env", "options_record", "profile_record", "run_episode"]
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
-    "detector_spec", "seed", "steps",
+    "detector_spec", "detector_options", "seed", "steps",
     "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "fnr_image", "fpr_image", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
     "route_completion", "min_ttc_s", "min_stopping_margin_m", "slide_steps", "mean_speed_m_s",
     "start_speed_m_s", "friction",
-    "camera_profile", "driving_score",
+    "camera_profile", "env_options", "driving_score",
     "detect_ms_median", "step_ms_median", "wall_s",
 )  # fmt: skip
 
@@ -257,6 +258,7 @@ def run_episode(
         "driver": spec.driver if driver is None else "custom",
         **_detector_record(pilot),
         "detector_spec": spec.detector if kind == "detector" and driver is None else "",
+        "detector_options": options_record(spec.detector_options) if kind == "detector" and driver is None else {},
         "seed": spec.seed,
         "steps": steps,
     }
@@ -268,6 +270,7 @@ def run_episode(
     record["start_speed_m_s"] = start_speed
     record["friction"] = env.config.friction
     record["camera_profile"] = profile_record(env.config.camera_profile)
+    record["env_options"] = options_record({k: v for k, v in spec.env_options.items() if k != "camera_profile"})
     record["detect_ms_median"] = float(np.median(detect_ms)) if detect_ms else 0.0
     record["step_ms_median"] = float(np.median(step_ms)) if step_ms else 0.0
     record["wall_s"] = time.perf_counter() - t_start
@@ -278,6 +281,27 @@ def profile_record(profile: Any) -> dict[str, Any]:
     """The ``camera_profile`` of a record: the fields of ``profile`` (a CameraProfile,
     a dict, a TOML path, or None for simroad's default)."""
     return resolve_profile(profile).as_dict()
+
+
+def options_record(options: Mapping[str, Any]) -> dict[str, Any]:
+    """``options`` as JSON values for a record (``detector_options``, ``env_options``):
+    dataclasses as their fields, tuples as lists, NumPy scalars and arrays as numbers
+    and lists, paths and anything else as text."""
+
+    def value(v: Any) -> Any:
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            return value(dataclasses.asdict(v))
+        if isinstance(v, Mapping):
+            return {str(k): value(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [value(x) for x in v]
+        if isinstance(v, (np.generic, np.ndarray)):
+            return v.tolist()
+        if v is None or isinstance(v, (bool, int, float, str)):
+            return v
+        return str(v)
+
+    return {str(k): value(v) for k, v in options.items()}
 
 
 def _detector_record(pilot: Any) -> dict[str, str]:

@@ -76,7 +76,11 @@ def export_frames(
     c = cam.config
     meta = {
         "seed": int(seed),
-        "env": {k: v for k, v in (env_kwargs or {}).items() if isinstance(v, (str, int, float, bool, type(None)))},
+        "env": {
+            **{k: v for k, v in (env_kwargs or {}).items() if isinstance(v, (str, int, float, bool, type(None)))},
+            "noise": env.config.noise,
+            "severity": env.config.severity if env.config.noise != "clear" else 0.0,  # clear has no severity
+        },
         "camera_profile": env.config.camera_profile.as_dict() if env.config.camera_profile is not None else None,
         "camera": {
             "width": c.width,

@@ -50,11 +50,14 @@ ROW_TYPES: dict[str, str] = {
     "min_stopping_margin_m": "number|null",
     "friction": "flag",
     "camera_profile": "table",
+    "detector_options": "table",
+    "env_options": "table",
     "error": "text|null",
 }
-#: Keys a row may lack (``camera_profile``, ``start_speed_m_s``: rows written before
+#: Keys a row may lack (``camera_profile``, ``start_speed_m_s``, ``detector_options``,
+#: ``env_options``: rows written before
 #: records held them).
-_OPTIONAL = ("error", "camera_profile", "start_speed_m_s")
+_OPTIONAL = ("error", "camera_profile", "start_speed_m_s", "detector_options", "env_options")
 
 
 def _is_number(v: Any) -> bool:

@@ -41,6 +41,7 @@ def test_frames_writes_pngs_masks_and_meta(tmp_path):
     meta = json.loads((out / "meta.json").read_text())
     assert meta["camera"]["width"] == 160 and len(meta["camera"]["K"]) == 3
     assert len(meta["frames"]) == 4
+    assert meta["env"]["noise"] == "clear" and meta["env"]["severity"] == 0.0  # clear frames have no severity
     xs = [f["x_m"] for f in meta["frames"]]
     assert xs == sorted(xs) and xs[-1] > xs[0]  # the car drove forward
 

@@ -25,7 +25,7 @@ def stub_episode(spec):
     if spec.seed == FAILING_SEED and spec.driver == FAILING_DRIVER:
         raise RuntimeError("boom")
     record = dict.fromkeys(RECORD_KEYS, 0.0)
-    record["camera_profile"] = {}
+    record["camera_profile"] = record["detector_options"] = record["env_options"] = {}
     record.update(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, filters=format_filters(spec.filters),
                   driver=spec.driver, seed=spec.seed, steps=spec.steps)  # fmt: skip
     detector = spec.detector if spec.driver == "detector" else ""

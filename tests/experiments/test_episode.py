@@ -235,3 +235,15 @@ def test_a_custom_driver_returning_no_numbers_is_refused_by_name(returned):
 
     with pytest.raises(SimroadError, match=r"^driver: returned .*, expected an action"):
         CallableDriver(lambda obs: returned)(np.zeros((4, 4, 3), np.uint8), {})
+
+
+def test_records_say_which_detector_options_and_env_options_ran():
+    small = {"width": 160, "height": 90, "scenery": 0.0, "road_surface": "wet"}
+    spec = EpisodeSpec(scenario="highway", steps=2, seed=4, detector_options={"morphology": False}, env_options=small)
+    rec = run_episode(spec)
+    assert rec["detector_options"] == {"morphology": False} and rec["env_options"] == small
+    json.dumps(rec, allow_nan=False)
+    other = run_episode(EpisodeSpec(scenario="highway", steps=2, seed=4, env_options=small))
+    assert other["detector_options"] == {} and other["detector_spec"] == rec["detector_spec"]  # now told apart
+    oracle = run_episode(EpisodeSpec(scenario="highway", steps=2, driver="oracle", detector_options={}))
+    assert oracle["detector_options"] == {} and oracle["env_options"] == {}

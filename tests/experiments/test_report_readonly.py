@@ -26,7 +26,7 @@ from stub_cell import stub_cell  # noqa: E402
 
 def _record(**kw):
     r = dict.fromkeys(RECORD_KEYS, 0.0)
-    r["camera_profile"] = {}
+    r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
     r.update(scenario="racetrack", noise="rain", severity=0.7, filters="none", driver="detector", seed=0, steps=5)
     r.update(detector="paper", detector_version="", detector_spec="paper")
     r.update(collided=False, offroad_steps=0, lane_departures=0, min_ttc_s=None, error=None)
@@ -45,7 +45,8 @@ def test_every_record_key_has_a_type_and_real_records_are_valid():
     # a failed episode: every metric NaN (run_cell), identity kept
     failed = dict.fromkeys(RECORD_KEYS, math.nan)
     failed.update(scenario="racetrack", noise="clear", severity=0.0, filters="none", driver="oracle", seed=1, steps=0)
-    failed.update(detector="", detector_version="", detector_spec="", camera_profile={"tone_gamma": 1.6})
+    failed.update(detector="", detector_version="", detector_spec="", camera_profile={"tone_gamma": 1.6},
+                  detector_options={}, env_options={"width": 160})  # fmt: skip
     assert check_row(json.loads(json.dumps(failed))) is None
     # the stub's rows (all floats) and a row without the optional error key
     stub = {k: v for k, v in _record(collided=0.0, offroad_steps=0.0).items() if k != "error"}
