@@ -22,7 +22,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 from simroad.errors import SimroadError
 
-__version__ = "0.1.0"
+__version__ = "0.2.0.dev0"
 __all__ = ["ENV_ID", "SimroadError", "__version__"]
 
 #: The gymnasium id of :class:`simroad.envs.RoadCamEnv`.

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 
+from simroad import __version__
+
 __all__ = ["COMMANDS", "DESCRIPTION", "command_parser"]
 
 DESCRIPTION = "Closed-loop camera road detection testbed in bad weather."
@@ -34,6 +36,7 @@ def command_parser(
 ) -> tuple[argparse.ArgumentParser, argparse._SubParsersAction]:
     """The top-level ``simroad`` parser and its (still empty) subcommand group."""
     parser = argparse.ArgumentParser(prog="simroad", description=DESCRIPTION)
+    parser.add_argument("--version", action="version", version=f"simroad {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=parser_class)
     sub.required = True
     return parser, sub

@@ -9,6 +9,7 @@ import inspect
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import imageio.v2 as imageio
 import numpy as np
@@ -147,3 +148,16 @@ def test_comma_lists_refuse_empty_and_repeated_items(argv, words, tmp_path, caps
     err = capsys.readouterr().err
     assert "Traceback" not in err
     assert re.search(words, err), err
+
+
+def test_version_flag_prints_the_version_of_the_package(capsys):
+    import tomllib
+
+    import simroad
+
+    with pytest.raises(SystemExit) as done:
+        main(["--version"])
+    assert done.value.code == 0
+    assert capsys.readouterr().out.strip() == f"simroad {simroad.__version__}"
+    pyproject = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
+    assert pyproject["project"]["version"] == simroad.__version__  # one version, stated twice
