@@ -47,6 +47,7 @@ from simroad.experiments.stats import (
     ALL_FILTERS,
     detectors,
     filter_order,
+    head_to_head_label,
     mean_interval,
     paired_differences,
     proportion_interval,
@@ -158,11 +159,17 @@ def _cell_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _paired_table(paired: list[dict]) -> str:
-    """The pooled (``scenario`` ``all``) paired rows as markdown."""
-    rows = [p for p in paired if p["scenario"] == "all"]
-    many = len({p["detector"] for p in rows}) > 1
-    head = (["detector"] if many else []) + ["noise", "severity", "setting − none", "pairs"]
+def _paired_table(paired: list[dict], *, head_to_head: bool = False) -> str:
+    """The pooled (``scenario`` ``all``) paired rows as markdown: filter sets and the
+    oracle against none, or (``head_to_head``) detector against detector."""
+    rows = [p for p in paired if p["scenario"] == "all" and (p.get("comparison") == "detectors") == head_to_head]
+    if not rows:
+        return "(nothing to pair in this sweep: " + (
+            "one detector ran)" if head_to_head else "no filter set or oracle beside no filters)"
+        )
+    many = head_to_head or len({p["detector"] for p in rows}) > 1
+    head = (["detectors" if head_to_head else "detector"] if many else []) + ["noise", "severity"]
+    head += ["filters" if head_to_head else "setting − none", "pairs"]
     head += ["Δ driving score", "Δ off-road, pts", "Δ FNR, pts", "Δ FPR, pts"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for p in rows:
@@ -185,10 +192,27 @@ def _write_md(records: list[dict], rows: list[dict], paired: list[dict], path: P
         "## Filters vs none, paired\n\n"
         "Mean difference setting − none over pairs of episodes in the same world and seed "
         "(scenario, seed), pooled over scenarios, with the bootstrap interval of the paired "
-        "difference (resampling pairs). Per scenario: `paired.csv`.\n\n" + _paired_table(paired) + "\n\n"
-        "## Per cell\n\nMean [95 % interval] over seeds.\n\n" + _cell_table(rows) + "\n"
+        "difference (resampling pairs). Per scenario: `paired.csv`.\n\n"
+        + _paired_table(paired)
+        + "\n\n"
+        + _head_to_head_section(paired)
+        + "## Per cell\n\nMean [95 % interval] over seeds.\n\n"
+        + _cell_table(rows)
+        + "\n"
     )
     path.write_text(text)
+
+
+def _head_to_head_section(paired: list[dict]) -> str:
+    """The detector-vs-detector section of summary.md (empty with one detector)."""
+    if not any(p.get("comparison") == "detectors" for p in paired):
+        return ""
+    return (
+        "## Detector vs detector, paired\n\n"
+        "Mean difference detector − the first detector (`paper` when it ran) at the same filter set, over pairs "
+        "of episodes in the same world and seed, pooled over scenarios, with the bootstrap interval of the "
+        "paired difference. Per scenario: `paired.csv`.\n\n" + _paired_table(paired, head_to_head=True) + "\n\n"
+    )
 
 
 def _mean(rs: list[dict], key: str) -> float:
@@ -215,16 +239,21 @@ def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     many = len(dets) > 1
     settings = [(d, f) for d in dets for f in filters]
     head = ["noise", "severity"] + [f"FNR / FPR % ({_setting(d, f, many)})" for d, f in settings]
-    pairs = [(d, f) for d in dets for f in ("none", ALL_FILTERS)]
+    shown = [f for f in ("none", ALL_FILTERS) if f in filters]  # the settings a sweep ran, no empty columns
+    pairs = [(d, f) for d in dets for f in shown]
     names = " / ".join([_setting(d, f, many) for d, f in pairs] + ["oracle"])
     head += [f"off-road % ({names})", f"driving score ({names})", "max whole − ground FPR, pts"]
-    head += [f"driving score all − none, paired{f' ({d})' if many else ''}" for d in dets]
+    # paired columns: all filters − none per detector, each detector − the first per shown filter set
+    compared = [(d, ALL_FILTERS, "all − none" + (f" ({d})" if many else "")) for d in dets if ALL_FILTERS in shown]
+    compared += [(head_to_head_label(d, dets[0]), f, f"{head_to_head_label(d, dets[0])} ({_setting('', f, False)})")
+                 for d in dets[1:] for f in shown]  # fmt: skip
+    head += [f"driving score {name}, paired" for _, _, name in compared]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for noise, sev in cells:
         rs = [r for r in ok if r["noise"] == noise and r["severity"] == sev]
         row = [noise, f"{sev:g}", *_headline_cells(rs, settings, pairs)]
-        for d in dets:
-            want = (d, noise, sev, "all", ALL_FILTERS)
+        for d, setting, _ in compared:
+            want = (d, noise, sev, "all", setting)
             p = next((p for p in paired if tuple(p[k] for k in _PAIRED_ID) == want), None)
             diff = (p["driving_score_diff"], p["driving_score_diff_lo"], p["driving_score_diff_hi"]) if p else None
             row.append(f"{_fmt(*diff)} ({p['pairs']} pairs)" if p and diff else "–")

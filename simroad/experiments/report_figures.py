@@ -118,10 +118,12 @@ def paired_figure(paired: list[dict], path: Path) -> None:
     rows = [p for p in paired if p["scenario"] == "all" and p["setting"] != "oracle"]
     dets = sorted({p["detector"] for p in rows}, key=lambda d: (d != "paper", d)) or [""]
     cells = sorted({(p["noise"], p["severity"]) for p in rows}, key=lambda c: (c[0] != "clear", c[0], c[1]))
-    settings = sorted({p["setting"] for p in rows}, key=lambda f: (f != ALL_FILTERS, f))
     fig, axes = plt.subplots(len(dets), 1, figsize=(max(6.0, 0.55 * len(cells) + 2.5), 3.6 * len(dets)), squeeze=False)
-    width = 0.8 / max(1, len(settings))
     for ax, det in zip(axes[:, 0], dets):
+        mine = [p for p in rows if p["detector"] == det]
+        settings = sorted({p["setting"] for p in mine}, key=lambda f: (f != ALL_FILTERS, f))
+        versus = any(p.get("comparison") == "detectors" for p in mine)
+        width = 0.8 / max(1, len(settings))
         for j, setting in enumerate(settings):
             found = {(p["noise"], p["severity"]): p for p in rows if p["detector"] == det and p["setting"] == setting}
             stats = [
@@ -131,14 +133,18 @@ def paired_figure(paired: list[dict], path: Path) -> None:
                 for c in cells
             ]
             xs = np.arange(len(cells)) + (j - (len(settings) - 1) / 2) * width
-            label = "all filters" if setting == ALL_FILTERS else setting
+            label = "all filters" if setting == ALL_FILTERS else ("no filters" if setting == "none" else setting)
             style = {"marker": "o", "markersize": 6} if setting == ALL_FILTERS else {"marker": ".", "alpha": 0.8}
             ax.errorbar(xs, [m for m, _, _ in stats], yerr=_yerr(stats), ls="none", capsize=2, label=label, **style)
         ax.axhline(0.0, color="black", lw=0.8)
         ax.set_xticks(np.arange(len(cells)), [f"{n} {s:g}" if n != "clear" else n for n, s in cells], rotation=30)
-        ax.set_ylabel("Δ driving score vs none")
-        title = "Filters − none, paired by world and seed (mean, 95 % bootstrap CI)"
-        ax.set_title(f"{det}: {title}" if len(dets) > 1 else title, fontsize=10)
+        if versus:
+            ax.set_ylabel("Δ driving score")
+            ax.set_title(f"{det}, same filters: paired by world and seed (mean, 95 % CI)", fontsize=10)
+        else:
+            ax.set_ylabel("Δ driving score vs none")
+            title = "filters − none, paired by world and seed (mean, 95 % CI)"
+            ax.set_title(f"{det}: {title}" if len(dets) > 1 else title, fontsize=10)
         ax.grid(axis="y", alpha=0.3)
         if settings:
             ax.legend(fontsize=7, ncol=2)

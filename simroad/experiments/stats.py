@@ -63,6 +63,7 @@ __all__ = [
     "detectors",
     "filter_order",
     "fnr_plus_fpr",
+    "head_to_head_label",
     "mean_interval",
     "paired_differences",
     "paired_pooled_difference",
@@ -339,8 +340,11 @@ def paired_differences(records: Sequence[dict], *, metrics: Sequence[str] = PAIR
     paired differences ``f - none`` with its bootstrap interval (resampling pairs;
     :func:`mean_interval`: NaN with fewer than two pairs). The oracle against the
     detector without filters comes last (``setting`` ``oracle``). One row pools
-    every scenario (``scenario`` ``all``), then one row per scenario. Failed
-    episodes (``error`` set) are left out; a metric's difference uses the pairs
+    every scenario (``scenario`` ``all``), then one row per scenario. With more than
+    one detector, each detector after the first (``paper`` when it ran) is then
+    compared with the first at every filter set both ran: ``detector`` is
+    ``"mine − paper"`` (:func:`head_to_head_label`), ``baseline`` the first detector.
+    Failed episodes (``error`` set) are left out; a metric's difference uses the pairs
     where both values are finite.
 
     Parameters
@@ -354,8 +358,9 @@ def paired_differences(records: Sequence[dict], *, metrics: Sequence[str] = PAIR
     -------
     list of dict
         Keys ``detector``, ``noise``, ``severity``, ``scenario``, ``setting`` (a
-        filter set or ``oracle``), ``baseline`` (``none``), ``pairs``, and for each
-        metric ``<metric>_diff``, ``<metric>_diff_lo``, ``<metric>_diff_hi``.
+        filter set or ``oracle``), ``baseline`` (``none``, or the first detector),
+        ``comparison`` (``filters``, ``oracle`` or ``detectors``), ``pairs``, and for
+        each metric ``<metric>_diff``, ``<metric>_diff_lo``, ``<metric>_diff_hi``.
     """
     ok = [r for r in records if not r.get("error")]
     groups: dict[tuple, list[dict]] = defaultdict(list)
@@ -374,9 +379,38 @@ def paired_differences(records: Sequence[dict], *, metrics: Sequence[str] = PAIR
             settings = [(f, s) for f, s in settings if f != "none"] + ([("oracle", oracle)] if oracle else [])
             scenarios = ["all"] + sorted({r["scenario"] for r in mine})
             for setting, recs in settings:
+                comparison = "oracle" if setting == "oracle" else "filters"
                 for scenario in scenarios:
                     pick = (lambda r: True) if scenario == "all" else (lambda r, s=scenario: r["scenario"] == s)
                     label = dict(detector=det, noise=noise, severity=severity, scenario=scenario, setting=setting)
                     a, b = _by_world(filter(pick, recs)), _by_world(filter(pick, none))
-                    rows.append(_paired_row(a, b, metrics, **label, baseline="none"))
+                    rows.append(_paired_row(a, b, metrics, **label, baseline="none", comparison=comparison))
+        rows += _head_to_head(rs, noise, severity, metrics)
+    return rows
+
+
+def head_to_head_label(detector: str, baseline: str) -> str:
+    """The ``detector`` of a head-to-head row of :func:`paired_differences`."""
+    return f"{detector} − {baseline}"
+
+
+def _head_to_head(rs: list[dict], noise: str, severity: float, metrics: Sequence[str]) -> list[dict]:
+    """Each detector after the first (``paper`` when it ran) against the first, at every
+    filter set both ran, in pairs of the same world."""
+    dets = detectors(rs)
+    if len(dets) < 2:
+        return []
+    of = {d: [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d] for d in dets}
+    base, rows = dets[0], []
+    for det in dets[1:]:
+        both = [f for f in filter_order(r["filters"] for r in of[det]) if any(r["filters"] == f for r in of[base])]
+        scenarios = ["all"] + sorted({r["scenario"] for r in of[det]})
+        for setting in both:
+            for scenario in scenarios:
+                pick = [r for r in of[det] if r["filters"] == setting and scenario in ("all", r["scenario"])]
+                ref = [r for r in of[base] if r["filters"] == setting and scenario in ("all", r["scenario"])]
+                label = dict(detector=head_to_head_label(det, base), noise=noise, severity=severity, scenario=scenario,
+                             setting=setting)  # fmt: skip
+                rows.append(_paired_row(_by_world(pick), _by_world(ref), metrics, **label, baseline=base,
+                                        comparison="detectors"))  # fmt: skip
     return rows
