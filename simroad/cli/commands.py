@@ -261,9 +261,19 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         detector_options=parse_detector_options(args.detector_option),
         camera_profile=args.camera_profile,
     )
-    if args.json:
-        print(json.dumps({"detector": rows, "filter_masks": frows}))
+    frames = rows[0]["frames"] if rows else 0
+    if args.images:
+        source = f"{frames} images of {args.images}"
     else:
+        worlds = f"world {seeds[0]}" if len(seeds) == 1 else f"worlds {seeds[0]}-{seeds[-1]}"
+        source = (f"{frames} rendered frames ({', '.join(args.scenario)}; {worlds}; "
+                  f"{args.noise[0]}{f' {args.severity[0]:g}' if args.noise[0] != 'clear' else ''})")  # fmt: skip
+    detector = {"spec": args.detector, "model": args.model, "options": parse_detector_options(args.detector_option)}
+    if args.json:
+        print(json.dumps({"detector": detector, "source": source, "rows": rows, "filter_masks": frows}))
+    else:
+        model = f", model {args.model}" if args.model else ""
+        print(f"detector {args.detector}{model} on {source}")
         print(format_table(rows, percent=("fnr", "fpr", "fnr_image", "fpr_image")))
         if frows:
             print()

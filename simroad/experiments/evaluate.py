@@ -26,7 +26,7 @@ from simroad.experiments.figures import check_figure_path
 from simroad.experiments.frames import FrameSet, check_frame_protocol, collect_frames
 from simroad.experiments.photos import load_image_folder
 from simroad.experiments.video import overlay_frame
-from simroad.filters import format_filters, parse_filters, remove_highlights, remove_shadows
+from simroad.filters import format_filters, parse_filters
 from simroad.filters.pipeline import FILTER_REGISTRY, FILTERS
 from simroad.metrics.mask import MaskScore
 
@@ -35,6 +35,7 @@ __all__ = [
     "detector_factory",
     "evaluate_detector",
     "evaluate_frames",
+    "filter_mask",
     "format_table",
     "model_factory",
     "qualitative_figure",
@@ -44,13 +45,22 @@ __all__ = [
 DetectorFactory = Callable[[tuple[str, ...]], Any]
 
 #: The filters that detect where their weather acts (each returns that mask), by name.
-_MASK_DETECTORS: dict[str, Callable[[np.ndarray], Any]] = {"shadow": remove_shadows, "light": remove_highlights}
+_MASK_DETECTORS = ("shadow", "light")
 #: Which ground-truth noise mask a filter's own detection mask is scored against: the
 #: weather the filter is registered for.
 FILTER_MASK_TRUTH = {name: FILTER_REGISTRY[name].weathers[0] for name in _MASK_DETECTORS}
 
 
-def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, MaskScore]:
+def filter_mask(name: str, image: np.ndarray, variant: str = "improved") -> np.ndarray:
+    """Where the filter ``name`` (its ``variant``'s steps, as the detector runs them)
+    detects its weather in ``image``: the mask of its last step."""
+    mask = np.zeros(image.shape[:2], bool)
+    for step in FILTER_REGISTRY[name].steps(variant):
+        image, mask = step.function(image, **step.settings)
+    return mask
+
+
+def _filter_mask_scores(frames: FrameSet, filters: Sequence[str], variant: str) -> dict[str, MaskScore]:
     scores: dict[str, MaskScore] = {}
     for name in filters:
         truth_name = FILTER_MASK_TRUTH.get(name)
@@ -59,10 +69,9 @@ def _filter_mask_scores(frames: FrameSet, filters: Sequence[str]) -> dict[str, M
         score = MaskScore()
         for img, noise in zip(frames.images, frames.noise_masks):
             if truth_name in noise:
-                _, detected = _MASK_DETECTORS[name](img)
-                score.update(detected, noise[truth_name])
+                score.update(filter_mask(name, img, variant), noise[truth_name])
         if score.n_frames:
-            scores[f"{name} filter vs GT {truth_name}"] = score
+            scores[f"{name} filter ({variant}) vs GT {truth_name}"] = score
     return scores
 
 
@@ -159,8 +168,10 @@ def evaluate_frames(
             }
         )
     all_filters = sorted({f for setting in settings for f in setting})
+    # the filters' own masks as the detector ran them: its variant (the shipped default otherwise)
+    variant = getattr(factory(tuple(all_filters)), "filter_variant", "improved") if all_filters else "improved"
     frows = []
-    for name, score in _filter_mask_scores(frames, all_filters).items():
+    for name, score in _filter_mask_scores(frames, all_filters, variant).items():
         s = score.summary()
         frows.append(
             {"mask": name, "frames": score.n_frames, **{k: s[k] for k in ("precision", "recall", "iou", "f1")}}

@@ -226,11 +226,13 @@ def _pct(x: float, digits: int = 1) -> str:
 
 def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     """A compact markdown table: per noise and severity (pooled over scenarios and
-    seeds), FNR / FPR for every filter set; off-road fraction and driving score for
-    no filters, all filters and the oracle; the worst whole-image minus ground FPR
-    over the detector's settings (points); and the paired all-filters − none
-    driving-score difference with its interval, per detector (``paired`` as
-    :func:`~simroad.experiments.stats.paired_differences` gives it; computed when None)."""
+    seeds), FNR / FPR for every filter set; off-road fraction, driving score, route
+    completion and mean speed for no filters, all filters and the oracle; the worst
+    whole-image minus ground FPR over the detector's settings (points); the paired
+    all-filters − none driving-score difference with its interval, per detector, and
+    each detector − the first per filter set (``paired`` as
+    :func:`~simroad.experiments.stats.paired_differences` gives it; computed when None).
+    Only the filter sets the sweep ran get columns."""
     ok = [r for r in records if not r.get("error")]
     paired = paired_differences(ok) if paired is None else paired
     cells = sorted({(r["noise"], r["severity"]) for r in ok}, key=lambda c: (c[0] != "clear", c[0], c[1]))
@@ -242,7 +244,8 @@ def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     shown = [f for f in ("none", ALL_FILTERS) if f in filters]  # the settings a sweep ran, no empty columns
     pairs = [(d, f) for d in dets for f in shown]
     names = " / ".join([_setting(d, f, many) for d, f in pairs] + ["oracle"])
-    head += [f"off-road % ({names})", f"driving score ({names})", "max whole − ground FPR, pts"]
+    head += [f"off-road % ({names})", f"driving score ({names})", f"route completion % ({names})"]
+    head += [f"mean speed m/s ({names})", "max whole − ground FPR, pts"]
     # paired columns: all filters − none per detector, each detector − the first per shown filter set
     compared = [(d, ALL_FILTERS, "all − none" + (f" ({d})" if many else "")) for d in dets if ALL_FILTERS in shown]
     compared += [(head_to_head_label(d, dets[0]), f, f"{head_to_head_label(d, dets[0])} ({_setting('', f, False)})")
@@ -265,8 +268,10 @@ _PAIRED_ID = ("detector", "noise", "severity", "scenario", "setting")
 
 
 def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list[tuple[str, str]]) -> list[str]:
-    """One noise x severity of :func:`headline`: FNR / FPR per setting, off-road and
-    driving score of ``pairs`` and the oracle, the worst whole-image minus ground FPR."""
+    """One noise x severity of :func:`headline`: FNR / FPR per setting; off-road,
+    driving score, route completion and mean speed of ``pairs`` and the oracle (why a
+    score moved: a car that crawls stays on the road and completes little); the worst
+    whole-image minus ground FPR."""
 
     def pick(d: str, f: str) -> list[dict]:
         return [r for r in rs if r["driver"] == "detector" and r.get("detector", "") == d and r["filters"] == f]
@@ -278,6 +283,8 @@ def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list
     groups = [pick(d, f) for d, f in pairs] + [[r for r in rs if r["driver"] == "oracle"]]
     cells.append(" / ".join(_pct(_mean(g, "offroad_fraction")) if g else "–" for g in groups))
     cells.append(" / ".join(f"{_mean(g, 'driving_score'):.2f}" if g else "–" for g in groups))
+    cells.append(" / ".join(_pct(_mean(g, "route_completion"), 0) if g else "–" for g in groups))
+    cells.append(" / ".join(f"{_mean(g, 'mean_speed_m_s'):.1f}" if g else "–" for g in groups))
     sky = [_mean(det, "fpr_image") - _mean(det, "fpr") for det in (pick(d, f) for d, f in settings) if det]
     sky = [x for x in sky if math.isfinite(x)]
     cells.append(_pct(max(sky), 2) if sky else "–")

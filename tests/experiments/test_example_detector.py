@@ -87,5 +87,5 @@ def test_example_scored_on_held_out_frames(run):
     code, out, err = run(["evaluate-detector", "--scenario", "winding", "--seeds", "1", "--frames", "2", "--json",
                           "--filters", "none,rain_snow", "--detector", SPEC, *SMALL])  # fmt: skip
     assert code == 0, err
-    rows = json.loads(out)["detector"]
+    rows = json.loads(out)["rows"]
     assert [r["filters"] for r in rows] == ["none", "rain_snow"] and all(0.0 <= r["iou"] <= 1.0 for r in rows)

@@ -89,7 +89,7 @@ def test_the_same_photos_in_four_formats_give_the_same_numbers(tmp_path, capsys)
         capsys.readouterr()
         argv = ["evaluate-detector", "--images", str(images), "--masks", str(masks), "--filters", "none", "--json"]
         assert main([*argv, *flags[fmt]]) == 0
-        assert json.loads(capsys.readouterr().out)["detector"] == rows[fmt], fmt
+        assert json.loads(capsys.readouterr().out)["rows"] == rows[fmt], fmt
     assert rows["0-255"] == rows["0-1"] == rows["colour"]
     assert rows["0-255"][0]["frames"] == 3 and 0.0 < rows["0-255"][0]["iou"] <= 1.0
     assert rows["labels"][0]["frames"] == 3 and rows["labels"] != rows["0-255"]
@@ -101,7 +101,7 @@ def test_the_command_line_prints_the_librarys_rows(tmp_path, capsys):
     capsys.readouterr()
     argv = ["evaluate-detector", "--images", str(images), "--masks", str(masks), "--filters", "none", "--json"]
     assert main([*argv, "--road-colour", "255,0,255"]) == 0
-    assert json.loads(capsys.readouterr().out)["detector"] == want
+    assert json.loads(capsys.readouterr().out)["rows"] == want
 
 
 def test_grey_edges_jpeg_and_16_bit_masks_read_as_black_and_white(tmp_path):
