@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from simroad.cli.env_options import env_options
+from simroad.cli.env_options import env_options, given_camera_options
 from simroad.cli.types import MAX_SEED, given
 from simroad.core.validation import check_choice, check_output_dir
 from simroad.detector import RoadDetector
@@ -158,6 +158,9 @@ def cmd_ablate(args: argparse.Namespace) -> int:
         opts["detector_options"] = _detector_option_flags(
             args.detector_option, opts.get("detectors", ("paper",)), dict(opts.get("detector_options", {}))
         )
+    camera = given_camera_options(args)
+    if camera:
+        opts["env_options"] = {**opts.get("env_options", {}), **camera}
     run = {k: opts.pop(k) for k in RUN_KEYS if k in opts}
     if args.camera_profile is not None:
         opts["camera_profile"] = args.camera_profile

@@ -25,13 +25,17 @@ from simroad.experiments.photos import check_road_colour
 from simroad.noise import WIPER_MODES, WindscreenParams
 
 __all__ = [
+    "CAMERA_FLAGS",
     "MASK_FORMATS",
+    "add_camera_options",
     "add_camera_profile",
     "add_env_options",
     "add_mask_format",
+    "add_sweep_camera",
     "add_worlds",
     "default_of",
     "env_options",
+    "given_camera_options",
     "names",
 ]
 
@@ -109,37 +113,8 @@ def add_env_options(p: argparse.ArgumentParser, defaults: Callable[..., Any]) ->
         default=severity,
         help=f"weather severity in [0, 1] (default: {severity})",
     )
-    cam = {k: default_of(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg")}
-    size = T.int_in(1, 100_000)  # the camera checks its own range
-    g.add_argument("--width", type=size, default=cam["width"], help=f"image width in pixels (default: {cam['width']})")
-    g.add_argument(
-        "--height", type=size, default=cam["height"], help=f"image height in pixels (default: {cam['height']})"
-    )
-    g.add_argument(
-        "--hfov",
-        type=T.finite_float(),
-        default=cam["hfov_deg"],
-        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
-    )
-    g.add_argument(
-        "--pitch",
-        type=T.finite_float(),
-        default=cam["pitch_deg"],
-        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
-    )
+    add_camera_options(g, with_defaults=True)
     g.add_argument("--no-traffic", action="store_true", help="no other vehicles")
-    scenery = default_of(RoadCamConfig, "scenery")
-    g.add_argument(
-        "--scenery",
-        type=T.float_in(0.0, 5.0),
-        default=scenery,
-        help=f"density of the world's scenery (trees, poles, buildings, ...) in [0, 5]; 0 = bare (default: {scenery:g})",
-    )
-    g.add_argument(
-        "--no-camera-effects",
-        action="store_true",
-        help="a perfect pinhole camera: no sensor (exposure, noise, response curve, vignetting, motion blur)",
-    )
     _add_friction_options(g)
     _add_windscreen_options(g)
     add_camera_profile(g)
@@ -152,6 +127,86 @@ def _profile(text: str) -> CameraProfile:
         return load_profile(text)
     except SimroadError as exc:
         raise argparse.ArgumentTypeError(str(exc).removeprefix("camera_profile: ")) from None
+
+
+#: The camera flags of :func:`add_camera_options` -> their RoadCam option.
+CAMERA_FLAGS = {
+    "width": "width", "height": "height", "hfov": "hfov_deg", "pitch": "pitch_deg",
+    "mount_height": "mount_height_m", "forward_offset": "forward_offset_m", "scenery": "scenery",
+}  # fmt: skip
+
+
+def add_camera_options(g: argparse.ArgumentParser | argparse._ArgumentGroup, *, with_defaults: bool) -> None:
+    """``--width``, ``--height``, ``--hfov``, ``--pitch``, ``--mount-height``,
+    ``--forward-offset``, ``--scenery`` and ``--no-camera-effects``: the camera and the
+    world's scenery. ``with_defaults`` False leaves an unset flag None (a sweep passes
+    on only what was given: :func:`given_camera_options`)."""
+    cam = {k: default_of(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg", "mount_height_m",
+                                                     "forward_offset_m")}  # fmt: skip
+    cam["scenery"] = default_of(RoadCamConfig, "scenery")
+
+    def dflt(key: str) -> Any:
+        return cam[key] if with_defaults else None
+
+    size = T.int_in(1, 100_000)  # the camera checks its own range
+    real = T.finite_float()
+    g.add_argument("--width", type=size, default=dflt("width"), help=f"image width in pixels (default: {cam['width']})")
+    g.add_argument(
+        "--height", type=size, default=dflt("height"), help=f"image height in pixels (default: {cam['height']})"
+    )
+    g.add_argument(
+        "--hfov",
+        type=real,
+        default=dflt("hfov_deg"),
+        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
+    )
+    g.add_argument(
+        "--pitch",
+        type=real,
+        default=dflt("pitch_deg"),
+        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
+    )
+    g.add_argument(
+        "--mount-height",
+        type=real,
+        default=dflt("mount_height_m"),
+        help=f"camera height above the road in metres (default: {cam['mount_height_m']:g})",
+    )
+    g.add_argument(
+        "--forward-offset",
+        type=real,
+        default=dflt("forward_offset_m"),
+        help=f"camera position ahead of the car's centre in metres (default: {cam['forward_offset_m']:g})",
+    )
+    g.add_argument(
+        "--scenery",
+        type=T.float_in(0.0, 5.0),
+        default=dflt("scenery"),
+        help=f"density of the world's scenery (trees, poles, buildings, ...) in [0, 5]; 0 = bare "
+        f"(default: {cam['scenery']:g})",
+    )
+    g.add_argument(
+        "--no-camera-effects",
+        action="store_true",
+        help="a perfect pinhole camera: no sensor (exposure, noise, response curve, vignetting, motion blur)",
+    )
+
+
+def add_sweep_camera(p: argparse.ArgumentParser) -> None:
+    """A sweep's camera flags: ``--camera-profile`` and :func:`add_camera_options`
+    without defaults (only what is given reaches the grid's ``env_options``)."""
+    add_camera_profile(p)
+    group = p.add_argument_group("camera of every episode (also env_options in --config)")
+    add_camera_options(group, with_defaults=False)
+
+
+def given_camera_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The RoadCam options of the camera flags that were given (:func:`add_camera_options`
+    without defaults)."""
+    out = {opt: getattr(args, flag) for flag, opt in CAMERA_FLAGS.items() if getattr(args, flag) is not None}
+    if args.no_camera_effects:
+        out["camera_effects"] = False
+    return out
 
 
 def add_mask_format(p: argparse.ArgumentParser) -> None:
@@ -252,11 +307,7 @@ def env_options(args: argparse.Namespace) -> dict[str, Any]:
     if args.wiper_period is not None:
         windscreen = WindscreenParams(wiper_period_s=args.wiper_period)
     return {
-        "width": args.width,
-        "height": args.height,
-        "hfov_deg": args.hfov,
-        "pitch_deg": args.pitch,
-        "scenery": args.scenery,
+        **{opt: getattr(args, flag) for flag, opt in CAMERA_FLAGS.items()},
         "camera_effects": not args.no_camera_effects,
         "friction": not args.no_friction,
         "road_surface": args.road_surface,

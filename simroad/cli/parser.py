@@ -20,6 +20,7 @@ from simroad.cli.env_options import (
     add_camera_profile,
     add_env_options,
     add_mask_format,
+    add_sweep_camera,
     default_of,
     names,
 )
@@ -244,7 +245,7 @@ def _add_ablate(sub: Any) -> None:
     )
     p.add_argument("--out", type=T.output_dir(), help="output directory")
     p.add_argument("--fresh", action="store_true", help="delete results of a different grid in --out and start anew")
-    add_camera_profile(p)
+    add_sweep_camera(p)
     _add_quiet(p)
     p.set_defaults(func=commands.cmd_ablate)
 

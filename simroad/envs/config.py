@@ -18,7 +18,7 @@ from simroad.envs.scenarios import SCENARIO_NAMES, SCENARIOS
 from simroad.errors import InvalidParameterError, SimroadError
 from simroad.noise import MODELS, WindscreenParams, parse_noise
 
-__all__ = ["RoadCamConfig"]
+__all__ = ["ENV_OPTION_KEYS", "RoadCamConfig"]
 
 _CAMERA_KEYS = tuple(f.name for f in dataclasses.fields(CameraConfig))
 
@@ -174,6 +174,12 @@ class RoadCamConfig:
                 )
             own_kw["camera"] = CameraConfig(**cam_kw)
         return cls(**own_kw)
+
+
+#: Every keyword RoadCam takes (its config's fields and the camera's, given flat).
+ENV_OPTION_KEYS: tuple[str, ...] = tuple(
+    sorted({f.name for f in dataclasses.fields(RoadCamConfig)} | set(_CAMERA_KEYS))
+)
 
 
 def _profile(value: Any) -> CameraProfile:

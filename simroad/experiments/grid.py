@@ -22,9 +22,10 @@ from simroad.core.validation import (
     check_int_in_range,
 )
 from simroad.detector.registry import check_detector, resolve_factory
+from simroad.envs.config import ENV_OPTION_KEYS, RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.errors import InvalidParameterError, SimroadError
-from simroad.experiments.episode import EpisodeSpec
+from simroad.experiments.episode import EpisodeSpec, options_record
 from simroad.filters.pipeline import format_filters, parse_filters
 from simroad.noise import parse_noise
 
@@ -86,6 +87,12 @@ class AblationGrid:
     ``camera_profile`` (a :class:`~simroad.camera.profile.CameraProfile`, a dict of
     its fields or the path of a TOML profile, e.g. from ``simroad calibrate``) is
     every episode's camera (RoadCam's ``camera_profile``); None is simroad's default.
+    ``env_options`` are further RoadCam options for every episode -- the camera
+    (``width``, ``height``, ``hfov_deg``, ``pitch_deg``, ``mount_height_m``,
+    ``forward_offset_m``, ...), ``scenery``, ``camera_effects``, ``windscreen``,
+    ``road_surface``, ``mu``, ``max_offroad_m`` -- checked as RoadCam checks them; the
+    options the grid sets itself (scenario, weather, traffic, friction, camera profile,
+    duration) are refused there with the field to use instead.
     """
 
     scenarios: tuple[str, ...] = ("racetrack", "winding")
@@ -101,6 +108,7 @@ class AblationGrid:
     detector_options: dict = field(default_factory=dict)
     friction: bool = True
     camera_profile: CameraProfile | None = None
+    env_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         scen = tuple(check_choice("scenarios", s, SCENARIO_NAMES) for s in _split("scenarios", self.scenarios))
@@ -133,6 +141,7 @@ class AblationGrid:
         check_bool("traffic", self.traffic)
         check_bool("oracle", self.oracle)
         check_bool("friction", self.friction)
+        object.__setattr__(self, "env_options", _grid_env_options(self.env_options))
         if self.camera_profile is not None:
             try:
                 profile = resolve_profile(self.camera_profile)
@@ -172,17 +181,23 @@ class AblationGrid:
 
     def _env_options(self) -> dict[str, Any]:
         """The RoadCam options every episode of the grid shares."""
-        options: dict[str, Any] = {} if self.friction else {"friction": False}
+        options: dict[str, Any] = dict(self.env_options)
+        if not self.friction:
+            options["friction"] = False
         if self.camera_profile is not None:
             options["camera_profile"] = self.camera_profile
         return options
 
     def fingerprint(self) -> str:
         """A digest of everything that defines the grid's results (a grid without a
-        camera profile digests as before the field existed, so its sweeps resume)."""
+        camera profile or env options digests as before those fields existed, so its
+        sweeps resume)."""
         fields_ = asdict(self)
-        if fields_["camera_profile"] is None:
-            del fields_["camera_profile"]
+        for key in ("camera_profile", "env_options"):  # absent before these fields existed
+            if not fields_[key]:
+                del fields_[key]
+        if self.env_options:
+            fields_["env_options"] = options_record(self.env_options)
         text = json.dumps(fields_, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -207,6 +222,32 @@ def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
     )
 
 
+#: RoadCam options the grid sets itself, with the field that sets each.
+_GRID_OWNS = {
+    "scenario": "scenarios", "noise": "noises", "severity": "severities", "traffic": "traffic",
+    "friction": "friction", "camera_profile": "camera_profile", "duration_s": "steps", "longitudinal": "(always on)",
+}  # fmt: skip
+
+
+def _grid_env_options(options: Any) -> dict[str, Any]:
+    """``options`` as a dict of RoadCam options every episode shares, checked by RoadCam."""
+    if not isinstance(options, Mapping):
+        raise InvalidParameterError(
+            f"env_options: expected a table of RoadCam options such as {{'width': 640, 'height': 360}}, "
+            f"got {type(options).__name__}."
+        )
+    for key in options:
+        if key in _GRID_OWNS:
+            raise InvalidParameterError(
+                f"env_options: {key!r} is set by the grid itself; use its field {_GRID_OWNS[key]!r} instead."
+            )
+    try:
+        RoadCamConfig.from_kwargs(**options)
+    except SimroadError as exc:
+        raise InvalidParameterError(f"env_options: {exc}") from None
+    return dict(options)
+
+
 def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dict]:
     """``{spec: {key: value}}`` for specs of ``detectors`` only."""
     if not isinstance(options, Mapping):
@@ -227,7 +268,9 @@ def _detector_options(options: Any, detectors: tuple[str, ...]) -> dict[str, dic
 
 def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     """Read a TOML grid file; keys are AblationGrid's fields (``seed-start`` or
-    ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``. A
+    ``seed_start``) plus ``workers``, ``backend``, ``ray_address``, ``out``; RoadCam
+    options (``width = 640``, ``hfov_deg = 90``, or an ``[env_options]`` table) go to
+    ``env_options``. A
     ``camera_profile`` path is taken relative to the grid file's folder; it may also
     be a ``[camera_profile]`` table of the profile's fields."""
     p = Path(path)
@@ -244,11 +287,18 @@ def load_grid_file(path: str | os.PathLike) -> dict[str, Any]:
     except OSError as exc:
         raise InvalidParameterError(f"config: cannot read {str(p)!r} ({exc.strerror}).") from None
     valid = [f.name for f in fields(AblationGrid)] + ["workers", "backend", "ray_address", "out"]
-    out = {}
+    env_keys = [k for k in ENV_OPTION_KEYS if k not in _GRID_OWNS]
+    out: dict[str, Any] = {}
     for key, value in data.items():
         k = key.replace("-", "_")
+        if k in env_keys:  # a RoadCam option at the top level, e.g. width = 640
+            out.setdefault("env_options", {})[k] = value
+            continue
+        if k == "env_options" and isinstance(value, Mapping):
+            out.setdefault("env_options", {}).update(value)
+            continue
         if k not in valid:
-            close = difflib.get_close_matches(k, valid, n=1)
+            close = difflib.get_close_matches(k, valid + env_keys, n=1)
             hint = f" Did you mean {close[0]!r}?" if close else ""
             raise InvalidParameterError(
                 f"config: unknown key {key!r} in {str(p)!r}; valid keys are {', '.join(valid)}.{hint}"

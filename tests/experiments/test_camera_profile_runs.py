@@ -33,10 +33,11 @@ def test_grid_field_reaches_every_episode_spec(tmp_path):
 def test_a_grid_without_a_profile_keeps_its_fingerprint():
     """Sweeps started before the field existed resume: their digest is unchanged."""
     grid = AblationGrid()
-    fields = {k: v for k, v in dataclasses.asdict(grid).items() if k != "camera_profile"}
+    fields = {k: v for k, v in dataclasses.asdict(grid).items() if k not in ("camera_profile", "env_options")}
     old = hashlib.sha256(json.dumps(fields, sort_keys=True).encode()).hexdigest()[:16]
     assert grid.fingerprint() == old
     assert AblationGrid(camera_profile=PROFILE).fingerprint() != old
+    assert grid.fingerprint() == "7df94e7414f770c7"  # the digest of the default grid before env_options existed
 
 
 def test_config_file_path_is_relative_to_the_config(tmp_path):
