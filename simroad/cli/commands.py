@@ -25,6 +25,7 @@ from simroad.experiments.ablate import BACKENDS, run_ablation
 from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
 from simroad.experiments.evaluate import (
+    FIGURE_NOISES,
     detector_factory,
     evaluate_detector,
     format_table,
@@ -282,8 +283,25 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
             print()
             print(format_table(frows))
     if args.figure:
-        print(f"wrote {qualitative_figure(args.figure, seed=args.seed_start)}")  # a held-out world, as scored
+        print(f"wrote {_figure(args, seeds[0])}")
     return 0
+
+
+def _figure(args: argparse.Namespace, seed: int) -> Any:
+    """``evaluate-detector --figure``: the chosen detector, filter settings, scenarios
+    and weather (without --noise: the paper's four weathers; without --scenario: winding)."""
+    noise, severity = args.noise[0], args.severity[0]
+    factory = detector_factory(args.model, args.detector, parse_detector_options(args.detector_option))
+    return qualitative_figure(
+        args.figure,
+        scenarios=args.scenario if "scenario" in given(args) else ("winding",),
+        seed=seed,  # a held-out world, as scored
+        noises=FIGURE_NOISES if noise == "clear" else (noise,),
+        severity=severity,
+        settings=[parse_filters(f) for f in args.filters.split(",") if f.strip()],
+        detector_factory=factory,
+        detector_name=args.detector if args.model is None else f"{args.detector} ({args.model})",
+    )
 
 
 def _evaluate_photos(args: argparse.Namespace) -> int:

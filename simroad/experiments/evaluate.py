@@ -31,10 +31,12 @@ from simroad.filters.pipeline import FILTER_REGISTRY, FILTERS
 from simroad.metrics.mask import MaskScore
 
 __all__ = [
+    "FIGURE_NOISES",
     "FILTER_MASK_TRUTH",
     "detector_factory",
     "evaluate_detector",
     "evaluate_frames",
+    "figure_panels",
     "filter_mask",
     "format_table",
     "model_factory",
@@ -278,35 +280,69 @@ def format_table(rows: list[dict], *, percent: Sequence[str] = ()) -> str:
     return "\n".join(lines)
 
 
-def qualitative_figure(
-    path: str | os.PathLike, *, scenario: str = "winding", seed: int = 0, severity: float = 0.7
-) -> Path:
-    """The paper's Figs. 3-6 for every noise: the noisy frame, the mask without
-    filters, the mask with all filters, and the ground-truth outline."""
+#: The weathers of the paper's qualitative figure (Figs. 3-6).
+FIGURE_NOISES = ("glare", "shadow", "snow", "rain")
 
-    out = check_figure_path("figure", path)
-    check_choice("scenario", scenario, SCENARIO_NAMES)
+
+def figure_panels(
+    *,
+    scenarios: Sequence[str] = ("winding",),
+    seed: int = 0,
+    noises: Sequence[str] = FIGURE_NOISES,
+    severity: float = 0.7,
+    settings: Sequence[Sequence[str]] = ((), FILTERS),
+    detector_factory: DetectorFactory | None = None,
+) -> list[tuple[str, str, np.ndarray, np.ndarray, list[tuple[str, np.ndarray]]]]:
+    """The rows of :func:`qualitative_figure`: per scenario and noise ``(scenario,
+    noise, frame, ground truth, [(filter setting, mask), ...])``, each mask the
+    detector's ``predict`` on the frame on its own (:func:`predict_alone`)."""
+    for scenario in scenarios:
+        check_choice("scenario", scenario, SCENARIO_NAMES)
     seed = check_int_in_range("seed", seed, 0, 2**31 - 1)
     severity = check_in_range("severity", severity, 0.0, 1.0)
+    factory = detector_factory or _pretrained
+    detectors = [(format_filters(tuple(f)), factory(tuple(f))) for f in settings]
+    rows = []
+    for scenario in scenarios:
+        for noise in noises:
+            fs = collect_frames(
+                scenarios=(scenario,), seeds=(seed,), frames_per_seed=1, noise=noise, severity=severity, every=8
+            )
+            img, gt = fs.images[0], fs.masks[0]
+            rows.append((scenario, noise, img, gt, [(name, predict_alone(det, img)) for name, det in detectors]))
+    return rows
+
+
+def qualitative_figure(
+    path: str | os.PathLike,
+    *,
+    scenarios: Sequence[str] = ("winding",),
+    seed: int = 0,
+    noises: Sequence[str] = FIGURE_NOISES,
+    severity: float = 0.7,
+    settings: Sequence[Sequence[str]] = ((), FILTERS),
+    detector_factory: DetectorFactory | None = None,
+    detector_name: str = "paper",
+) -> Path:
+    """The paper's Figs. 3-6: per scenario and noise the noisy frame with the ground
+    truth's outline, then the detector's mask for each filter setting
+    (:func:`figure_panels`; by default the shipped detector without and with all
+    filters, on the four weathers of the paper)."""
+    out = check_figure_path("figure", path)
+    rows = figure_panels(scenarios=scenarios, seed=seed, noises=noises, severity=severity, settings=settings,
+                         detector_factory=detector_factory)  # fmt: skip
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    noises = ("glare", "shadow", "snow", "rain")
-    plain, full = RoadDetector.pretrained(filters=()), RoadDetector.pretrained(filters=tuple(FILTERS))
-    fig, axes = plt.subplots(len(noises), 3, figsize=(10, 1.95 * len(noises)))
-    for row, noise in enumerate(noises):
-        fs = collect_frames(
-            scenarios=(scenario,), seeds=(seed,), frames_per_seed=1, noise=noise, severity=severity, every=8
-        )
-        img, gt = fs.images[0], fs.masks[0]
-        panels = (
-            (overlay_frame(img, gt, None), f"{noise} (severity {severity:g}), GT outline"),
-            (overlay_frame(img, gt, predict_alone(plain, img)), "detector without filters"),
-            (overlay_frame(img, gt, predict_alone(full, img)), "detector with filters"),
-        )
-        for ax, (im, title) in zip(axes[row], panels):
+    cols = 1 + len(settings)
+    fig, axes = plt.subplots(len(rows), cols, figsize=(3.4 * cols, 1.95 * len(rows)), squeeze=False)
+    for ax_row, (scenario, noise, img, gt, masks) in zip(axes, rows):
+        shown = f"{noise} {severity:g}" if noise != "clear" else "clear"
+        panels = [(overlay_frame(img, gt, None), f"{scenario}, {shown}: GT outline")]
+        panels += [(overlay_frame(img, gt, m), f"{detector_name}, filters {name}") for name, m in masks]
+        for ax, (im, title) in zip(ax_row, panels):
             ax.imshow(im)
             ax.set_title(title, fontsize=8)
             ax.axis("off")

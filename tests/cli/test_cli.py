@@ -121,7 +121,15 @@ def test_the_qualitative_figure_draws_the_scored_held_out_world(monkeypatch, tmp
     monkeypatch.setattr(commands, "evaluate_detector", lambda *a, **k: ([], []))
     monkeypatch.setattr(commands, "qualitative_figure", lambda path, **k: drawn.update(k) or path)
     assert main(["evaluate-detector", "--seed-start", "123", "--figure", str(tmp_path / "q.png")]) == 0
-    assert drawn == {"seed": 123}
+    assert drawn["seed"] == 123 and drawn["scenarios"] == ("winding",) and drawn["severity"] == 0.7
+    assert drawn["noises"] == ("glare", "shadow", "snow", "rain") and drawn["settings"] == [
+        (),
+        ("shadow", "rain_snow", "light"),
+    ]
+    assert main(["evaluate-detector", "--seed-start", "123", "--scenario", "town", "--noise", "fog", "--severity", "0.3",
+                 "--filters", "none,rain_snow", "--figure", str(tmp_path / "q.png")]) == 0  # fmt: skip
+    assert (drawn["scenarios"], drawn["noises"], drawn["severity"]) == (("town",), ("fog",), 0.3)
+    assert drawn["settings"] == [(), ("rain_snow",)] and drawn["detector_name"] == "paper"
     assert main(["evaluate-detector", "--figure", str(tmp_path / "q.png")]) == 0
     assert drawn["seed"] >= 100  # the default: held out, never a training world (0-15)
 

@@ -7,11 +7,15 @@ import numpy as np
 import pytest
 
 from simroad import SimroadError
+from simroad.cli.main import main
 from simroad.detector import RoadDetector
+from simroad.detector.registry import predict_alone
 from simroad.errors import InvalidParameterError
 from simroad.experiments.evaluate import (
+    detector_factory,
     evaluate_detector,
     evaluate_frames,
+    figure_panels,
     filter_mask,
     format_table,
     model_factory,
@@ -121,3 +125,32 @@ def test_format_table_aligns_columns_and_formats_percentages():
                         percent=("fnr",))  # fmt: skip
     assert text.splitlines() == ["filters     fnr    iou", "   none   1.23%  0.500", "    all  50.00%  1.000"]
     assert format_table([]) == "(no rows)"
+
+
+def test_the_figure_shows_the_chosen_detector_weather_and_filters(tmp_path):
+    """Its panels are the chosen detector's predict on the chosen weather, per filter
+    setting; the command line's --figure passes its flags on."""
+    plugin = tmp_path / "lower.py"
+    plugin.write_text(
+        "import numpy as np\n"
+        "class Lower:\n"
+        "    def predict(self, image):\n"
+        "        mask = np.zeros(image.shape[:2], bool)\n"
+        "        mask[image.shape[0] // 2 :] = True\n"
+        "        return mask\n"
+    )
+    spec = f"{plugin}:Lower"
+    factory = detector_factory(None, spec, {})
+    rows = figure_panels(scenarios=("highway",), noises=("snow",), severity=0.4, settings=[(), ("rain_snow",)],
+                         detector_factory=factory)  # fmt: skip
+    assert [(r[0], r[1]) for r in rows] == [("highway", "snow")]
+    _, _, img, _, masks = rows[0]
+    assert [name for name, _ in masks] == ["none", "rain_snow"]
+    np.testing.assert_array_equal(masks[0][1], predict_alone(factory(()), img))
+    np.testing.assert_array_equal(masks[1][1], predict_alone(factory(("rain_snow",)), img))
+    clear = figure_panels(scenarios=("highway",), noises=("clear",), settings=[()], detector_factory=factory)
+    assert not np.array_equal(clear[0][2], img)  # the snow is on the frame
+    out = tmp_path / "fig.png"
+    argv = ["evaluate-detector", "--scenario", "highway", "--seeds", "1", "--frames", "1", "--noise", "snow",
+            "--severity", "0.4", "--filters", "none", "--detector", spec, "--figure", str(out)]  # fmt: skip
+    assert main(argv) == 0 and out.stat().st_size > 5_000
