@@ -22,7 +22,6 @@ from simroad.detector import RoadDetector
 from simroad.detector.registry import parse_detector_options
 from simroad.errors import InvalidParameterError
 from simroad.experiments.ablate import BACKENDS, run_ablation
-from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import RECORD_KEYS, EpisodeSpec, run_episode
 from simroad.experiments.evaluate import (
     FIGURE_NOISES,
@@ -55,7 +54,6 @@ __all__ = [
     "cmd_frames",
     "cmd_report",
     "cmd_train",
-    "cmd_videos",
     "refuse_flags",
     "seed_range",
 ]
@@ -371,19 +369,4 @@ def cmd_figure(args: argparse.Namespace) -> int:
     else:
         path = render_gallery(args.out, seed=args.seed)
     print(f"wrote {path}")
-    return 0
-
-
-def cmd_videos(args: argparse.Namespace) -> int:
-    """``simroad videos``: one annotated GIF per noise."""
-    paths = write_videos(
-        args.out,
-        scenario=args.scenario,
-        seed=args.seed,
-        steps=args.steps,
-        severity=args.severity,
-        progress=not args.quiet,
-        camera_profile=args.camera_profile,
-    )
-    print("videos: " + ", ".join(str(p) for p in paths))
     return 0

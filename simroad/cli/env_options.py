@@ -29,6 +29,7 @@ __all__ = [
     "MASK_FORMATS",
     "add_camera_options",
     "add_camera_profile",
+    "add_detector_flags",
     "add_env_options",
     "add_mask_format",
     "add_sweep_camera",
@@ -207,6 +208,27 @@ def given_camera_options(args: argparse.Namespace) -> dict[str, Any]:
     if args.no_camera_effects:
         out["camera_effects"] = False
     return out
+
+
+def add_detector_flags(p: argparse.ArgumentParser) -> None:
+    """``--detector SPEC`` and ``--detector-option key=value`` (see simroad.detector.registry)."""
+    p.add_argument(
+        "--detector",
+        type=T.detector_spec(),
+        default="paper",
+        metavar="SPEC",
+        help="the road detector: paper (the shipped one), a registered name, package.module:attr or "
+        "path/to/file.py:attr, a class or factory returning an object with predict(image) -> bool mask "
+        "(default: paper)",
+    )
+    p.add_argument(
+        "--detector-option",
+        type=T.detector_option(),
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="keyword option for the detector's class or factory, the value a Python literal or a string; repeatable",
+    )
 
 
 def add_mask_format(p: argparse.ArgumentParser) -> None:

@@ -18,6 +18,7 @@ from simroad.cli.calibrate import add_calibrate
 from simroad.cli.env_options import (
     MASK_FORMATS,
     add_camera_profile,
+    add_detector_flags,
     add_env_options,
     add_mask_format,
     add_sweep_camera,
@@ -26,13 +27,13 @@ from simroad.cli.env_options import (
 )
 from simroad.cli.index import COMMANDS, command_parser
 from simroad.cli.realism import add_realism
+from simroad.cli.videos import add_videos
 from simroad.control.drivers import DRIVER_NAMES
 from simroad.core.names import NOISE_NAMES, TRAIN_SEEDS
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.scenarios import SCENARIO_NAMES
 from simroad.experiments._ray_backend import check_ray_address
 from simroad.experiments.ablate import BACKENDS, run_ablation
-from simroad.experiments.demo import write_videos
 from simroad.experiments.episode import EpisodeSpec
 from simroad.experiments.evaluate import evaluate_detector
 from simroad.experiments.export import export_frames
@@ -106,27 +107,6 @@ def _add_frames(sub: Any) -> None:
     p.set_defaults(func=commands.cmd_frames)
 
 
-def _add_detector_flags(p: Any) -> None:
-    """``--detector SPEC`` and ``--detector-option key=value`` (see simroad.detector.registry)."""
-    p.add_argument(
-        "--detector",
-        type=T.detector_spec(),
-        default="paper",
-        metavar="SPEC",
-        help="the road detector: paper (the shipped one), a registered name, package.module:attr or "
-        "path/to/file.py:attr, a class or factory returning an object with predict(image) -> bool mask "
-        "(default: paper)",
-    )
-    p.add_argument(
-        "--detector-option",
-        type=T.detector_option(),
-        action="append",
-        default=[],
-        metavar="KEY=VALUE",
-        help="keyword option for the detector's class or factory, the value a Python literal or a string; repeatable",
-    )
-
-
 def _add_episode(sub: Any) -> None:
     p = _command(
         sub,
@@ -148,7 +128,7 @@ def _add_episode(sub: Any) -> None:
         default=d["driver"],
         help=f"{names(DRIVER_NAMES)} (default: {d['driver']})",
     )
-    _add_detector_flags(p)
+    add_detector_flags(p)
     _add_episode_seed(p, d["seed"])
     p.add_argument(
         "--steps",
@@ -342,7 +322,7 @@ def _add_detector(sub: Any) -> None:
         help="also draw the paper's qualitative figure (Figs. 3-6) to this PNG",
     )
     p.add_argument("--json", action="store_true", help="print JSON instead of tables")
-    _add_detector_flags(p)
+    add_detector_flags(p)
     photo = PhotoCamera()
     g = p.add_argument_group("weather on photographs (with --images and --noise)")
     g.add_argument("--weather-seed", type=T.seed(), default=0, help="seed of the weather on the photos (default: 0)")
@@ -419,32 +399,19 @@ def _add_pictures(sub: Any) -> None:
     add_camera_profile(p)
     p.set_defaults(func=commands.cmd_figure)
 
-    d = {k: default_of(write_videos, k) for k in ("scenario", "seed", "steps", "severity")}
-    p = _command(
-        sub,
-        "videos",
-        description="Drive one short episode per noise with the detector and all filters and write OUT/NOISE.gif: the camera view with the predicted road mask (green), the ground-truth outline (yellow) and a bird's-eye inset with the trajectory.",
-    )
-    p.add_argument("--out", type=T.output_dir(), required=True, help="output directory (created)")
-    p.add_argument(
-        "--scenario",
-        type=T.choice(SCENARIO_NAMES),
-        default=d["scenario"],
-        help=f"{names(SCENARIO_NAMES)} (default: {d['scenario']})",
-    )
-    _add_episode_seed(p, d["seed"])
-    p.add_argument("--steps", type=_STEPS, default=d["steps"], help=f"policy steps per video (default: {d['steps']})")
-    p.add_argument(
-        "--severity", type=_UNIT, default=d["severity"], help=f"weather severity in [0, 1] (default: {d['severity']})"
-    )
-    _add_quiet(p)
-    add_camera_profile(p)
-    p.set_defaults(func=commands.cmd_videos)
-
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``simroad`` argument parser with every subcommand."""
     parser, sub = command_parser(T.GivenParser)
-    for add in (_add_frames, _add_episode, _add_ablate, _add_detector, _add_pictures, add_realism, add_calibrate):
+    for add in (
+        _add_frames,
+        _add_episode,
+        _add_ablate,
+        _add_detector,
+        _add_pictures,
+        add_videos,
+        add_realism,
+        add_calibrate,
+    ):
         add(sub)
     return parser

@@ -10,7 +10,9 @@ trajectory.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from tqdm import tqdm
 
@@ -34,10 +36,14 @@ def write_videos(
     steps: int = 60,
     severity: float = 0.7,
     noises: tuple[str, ...] = DEMO_NOISES,
+    filters: str = "all",
+    detector: str = "paper",
+    detector_options: Mapping[str, Any] | None = None,
     progress: bool = True,
     camera_profile: CameraProfile | str | os.PathLike | None = None,
 ) -> list[Path]:
-    """One GIF per noise of the detector driver with all filters.
+    """One captioned GIF per noise of the detector driver (by default the paper's with
+    all filters).
 
     Parameters
     ----------
@@ -53,6 +59,10 @@ def write_videos(
         Weather severity in [0, 1].
     noises : tuple of str, optional
         Weathers, one video each (default :data:`DEMO_NOISES`).
+    filters : str, optional
+        The filter set in front of the detector (``none``, ``all``, names joined by ``+``).
+    detector, detector_options : optional
+        The detector spec and its keyword options (:mod:`simroad.detector.registry`).
     progress : bool, optional
         Show a progress bar.
     camera_profile : CameraProfile, dict or path, optional
@@ -69,8 +79,9 @@ def write_videos(
     check_output_dir("out", out)
     options = {} if camera_profile is None else {"camera_profile": resolve_profile(camera_profile)}
     specs = [  # every episode checked before the first one runs
-        EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=parse_filters("all"),
-                    seed=seed, steps=steps, route_m=1e4, env_options=options)
+        EpisodeSpec(scenario=scenario, noise=noise, severity=severity, filters=parse_filters(filters),
+                    seed=seed, steps=steps, route_m=1e4, env_options=options, detector=detector,
+                    detector_options=dict(detector_options or {}))
         for noise in noises
     ]  # fmt: skip
     directory = ensure_writable_dir("out", out)

@@ -227,7 +227,7 @@ def run_episode(
     valid = env.camera.ground_valid
     recorder = None
     if video is not None:
-        recorder = EpisodeVideo(video, env)
+        recorder = EpisodeVideo(video, env, caption=video_caption(spec, driver is not None))
     detect_ms, step_ms = [], []
     steps = 0
     for _ in range(spec.steps):
@@ -281,6 +281,18 @@ def profile_record(profile: Any) -> dict[str, Any]:
     """The ``camera_profile`` of a record: the fields of ``profile`` (a CameraProfile,
     a dict, a TOML path, or None for simroad's default)."""
     return resolve_profile(profile).as_dict()
+
+
+def video_caption(spec: EpisodeSpec, custom: bool = False) -> str:
+    """The caption of an episode's video: world, weather, what drove."""
+    weather = spec.noise if spec.noise == "clear" else f"{spec.noise} {spec.severity:g}"
+    if custom:
+        who = "custom driver"
+    elif spec.driver == "oracle":
+        who = "oracle (ground truth)"
+    else:
+        who = f"{spec.detector}, filters {format_filters(spec.filters)}"
+    return f"{spec.scenario} world {spec.seed}, {weather}: {who}"
 
 
 def options_record(options: Mapping[str, Any]) -> dict[str, Any]:

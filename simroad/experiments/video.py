@@ -50,7 +50,7 @@ def overlay_frame(obs: np.ndarray, gt: np.ndarray, pred: np.ndarray | None) -> n
 class EpisodeVideo:
     """Collect annotated frames of an episode and write them to ``path``."""
 
-    def __init__(self, path: str | os.PathLike, env, *, fps: int = 5) -> None:
+    def __init__(self, path: str | os.PathLike, env, *, fps: int = 5, caption: str = "") -> None:
         self.path = Path(path)
         if self.path.suffix.lower() not in (".mp4", ".gif"):
             raise InvalidParameterError(f"video: expected a path ending in .mp4 or .gif, got {str(self.path)!r}.")
@@ -60,6 +60,7 @@ class EpisodeVideo:
             raise InvalidParameterError(f"video: cannot create {str(self.path.parent)!r} ({exc.strerror}).") from None
         self.env = env
         self.fps = fps
+        self.caption = str(caption)
         self.frames: list[np.ndarray] = []
         self.trail: list[np.ndarray] = []
 
@@ -76,6 +77,8 @@ class EpisodeVideo:
         self._draw_trail(bev, info["pose"], mpp, behind_m=15.0)
         cv2.rectangle(bev, (0, 0), (size[0] - 1, size[1] - 1), (255, 255, 255), 1)
         frame[: size[1], -size[0] :] = bev
+        if self.caption:
+            _caption(frame, self.caption, width=frame.shape[1] - size[0] - 4)
         self.frames.append(frame)
 
     def _draw_trail(self, bev: np.ndarray, pose: np.ndarray, mpp: float, behind_m: float) -> None:
@@ -106,3 +109,14 @@ class EpisodeVideo:
         except (OSError, ValueError, RuntimeError) as exc:
             raise InvalidParameterError(f"video: could not write {str(self.path)!r}: {exc}") from None
         return self.path
+
+
+def _caption(frame: np.ndarray, text: str, *, width: int) -> None:
+    """Write ``text`` on a dark band at the top left of ``frame`` (in place), scaled to
+    fit ``width`` pixels."""
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    (w, h), base = cv2.getTextSize(text, font, 1.0, 1)
+    scale = max(0.25, min(0.5, frame.shape[0] / 500.0, width / max(w, 1)))
+    (w, h), base = cv2.getTextSize(text, font, scale, 1)
+    frame[: h + base + 4, : min(w + 6, frame.shape[1])] //= 3
+    cv2.putText(frame, text, (3, h + 2), font, scale, (255, 255, 255), 1, cv2.LINE_AA)

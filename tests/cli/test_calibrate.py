@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from simroad.camera.profile import CameraProfile, load_profile, save_profile
-from simroad.cli import commands
+from simroad.cli import commands, videos
 from simroad.cli.main import main
 from simroad.cli.parser import build_parser
 from simroad.experiments import calibrate as calibrate_module
@@ -155,14 +155,15 @@ def test_a_bad_profile_file_is_refused_by_flag_and_key(tmp_path, capsys):
 
 def _capture(monkeypatch, name):
     seen = {}
-    target = getattr(commands, name)
+    module = videos if name == "write_videos" else commands  # each command's own module
+    target = getattr(module, name)
 
     @functools.wraps(target)
     def fake(*args, **kwargs):
         seen.update(kwargs, args=args)
         raise SystemExit(0)
 
-    monkeypatch.setattr(commands, name, fake)
+    monkeypatch.setattr(module, name, fake)
     return seen
 
 

@@ -94,6 +94,39 @@ def test_videos_subcommand_writes_one_gif_per_noise(tmp_path, capsys):
     assert capsys.readouterr().out.startswith("videos: ")
 
 
+def test_videos_take_the_detector_and_filters_and_say_so_in_a_caption(tmp_path, capsys):
+    from simroad.experiments.episode import EpisodeSpec, video_caption
+
+    plugin = tmp_path / "marker.py"
+    plugin.write_text(
+        "import numpy as np, pathlib\n"
+        "class Marker:\n"
+        f"    def predict(self, image):\n        pathlib.Path({str(tmp_path / 'ran')!r}).touch()\n"
+        "        return np.ones(image.shape[:2], bool)\n"
+    )
+    out = tmp_path / "videos"
+    argv = [
+        "videos",
+        "--out",
+        str(out),
+        "--steps",
+        "2",
+        "--quiet",
+        "--detector",
+        f"{plugin}:Marker",
+        "--filters",
+        "none",
+    ]
+    assert main(argv) == 0 and (tmp_path / "ran").exists()
+    with_caption = imageio.mimread(out / "rain.gif")[0]
+    spec = EpisodeSpec(scenario="winding", noise="rain", severity=0.7, detector=f"{plugin}:Marker", seed=0)
+    assert video_caption(spec) == f"winding world 0, rain 0.7: {plugin}:Marker, filters none"
+    assert video_caption(EpisodeSpec(driver="oracle")) == "racetrack world 0, clear: oracle (ground truth)"
+    band, below = with_caption[:8, :60, :3].mean(), with_caption[16:40, :60, :3].mean()
+    assert band < 0.6 * below, (band, below)  # the caption's dark band over the sky
+    assert main(["videos", "--out", str(out), "--filters", "bogus", "--quiet"]) == 2
+
+
 def test_scenery_and_camera_effects_flags_reach_the_environment(tmp_path):
     args = build_parser().parse_args(["frames", "--out", "x"])
     assert args.scenery == RoadCamConfig().scenery and args.no_camera_effects is False
