@@ -188,6 +188,24 @@ class AblationGrid:
             options["camera_profile"] = self.camera_profile
         return options
 
+    def grows(self, old: Mapping[str, Any]) -> bool:
+        """Whether this grid holds every cell of the grid whose fields are ``old`` (as
+        ``grid.json`` records them), each run the same way: the same steps, traffic,
+        friction, camera profile and env options, and the same options for each of the
+        old detectors. Such a grid may take over the old one's results and run only its
+        new cells (more detectors, filter sets, weathers, seeds...)."""
+        try:
+            prev = AblationGrid(**old)
+        except (TypeError, SimroadError):
+            return False  # another version's grid.json, or options this one cannot rebuild
+        mine, theirs = asdict(self), asdict(prev)
+        if any(mine[k] != theirs[k] for k in ("steps", "traffic", "friction", "camera_profile", "env_options")):
+            return False
+        if any(self.detector_options.get(d, {}) != prev.detector_options.get(d, {}) for d in prev.detectors):
+            return False
+        cells = {cell_key(s) for s in self.specs()}
+        return all(cell_key(s) in cells for s in prev.specs())
+
     def fingerprint(self) -> str:
         """A digest of everything that defines the grid's results (a grid without a
         camera profile or env options digests as before those fields existed, so its

@@ -218,10 +218,11 @@ class ResultStore:
                     f"out: {str(self.grid_path)!r} is damaged (not the JSON object simroad writes). "
                     "Choose another --out, or pass --fresh to delete the results there and start anew."
                 ) from None
-            if old_print != meta["fingerprint"]:
+            if old_print != meta["fingerprint"] and not (isinstance(old_grid, Mapping) and grid.grows(old_grid)):
                 raise InvalidParameterError(
-                    f"out: {str(self.dir)!r} holds results of a different grid ({old_grid}). "
-                    f"Choose another --out, or pass --fresh to delete them and start anew."
+                    f"out: {str(self.dir)!r} holds results of a different grid ({old_grid}). A grid that holds "
+                    "every cell of it, run the same way (steps, traffic, friction, camera, options), grows it "
+                    "instead. Choose another --out, or pass --fresh to delete them and start anew."
                 )
         if fresh and self.path.exists():
             self.path.unlink()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -24,6 +25,7 @@ HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
 from stub_cell import FAILING_DRIVER, FAILING_SEED, stub_cell  # noqa: E402
 
+EXAMPLE = f"{HERE.parents[1] / 'examples' / 'pixel_detector.py'}:LabPixelDetector"
 GRID = AblationGrid(
     scenarios=("racetrack",),
     noises=("clear", "rain"),
@@ -97,6 +99,28 @@ def test_a_directory_with_another_grid_is_refused_unless_fresh(tmp_path):
         run_ablation(other, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
     records = run_ablation(other, tmp_path, workers=1, progress=False, cell_fn=stub_cell, fresh=True)
     assert len(records) == 4 and len(_rows(tmp_path / "results.jsonl")) == 4
+
+
+def test_a_grid_that_holds_the_old_one_grows_its_directory(tmp_path):
+    """More filter sets, detectors and seeds join the results there; the old rows stay
+    as they were and only the new cells run."""
+    small = AblationGrid(scenarios=("racetrack",), noises=("clear", "rain"), filters=("none",), seeds=2, steps=5)
+    run_ablation(small, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    before = (tmp_path / "results.jsonl").read_text()
+    bigger = dataclasses.replace(small, filters=("none", "all"), seeds=3, detectors=("paper", EXAMPLE))
+    assert bigger.grows(json.loads((tmp_path / "grid.json").read_text())["grid"])
+    records = run_ablation(bigger, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    after = (tmp_path / "results.jsonl").read_text()
+    assert after.startswith(before) and len(after.splitlines()) == len(records) == len(bigger.specs())
+    assert {cell_key(r) for r in records} == {cell_key(s) for s in bigger.specs()}
+    assert json.loads((tmp_path / "grid.json").read_text())["fingerprint"] == bigger.fingerprint()
+    # run another way, or without some of the old cells: refused as before
+    for other in (dataclasses.replace(bigger, steps=6), dataclasses.replace(bigger, filters=("all",)),
+                  dataclasses.replace(bigger, env_options={"width": 160})):  # fmt: skip
+        assert not other.grows(json.loads((tmp_path / "grid.json").read_text())["grid"])
+        with pytest.raises(SimroadError, match="different grid"):
+            run_ablation(other, tmp_path, workers=1, progress=False, cell_fn=stub_cell)
+    assert not bigger.grows({"scenarios": "nowhere"})  # another version's grid.json
 
 
 @pytest.mark.slow
