@@ -86,7 +86,7 @@ def test_a_detector_failure_names_the_detector_and_where_it_raised():
     assert isinstance(caught.value.__cause__, ZeroDivisionError)
 
 
-def test_the_command_line_maps_every_family_member_to_exit_2(capsys):
+def test_the_command_line_turns_a_bad_value_into_exit_2(capsys):  # a failed detector: 3 (test_failing_detector)
     from simroad.cli.main import main
 
     assert main(["episode", "--steps", "0"]) == 2
