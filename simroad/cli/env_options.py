@@ -131,10 +131,18 @@ def _profile(text: str) -> CameraProfile:
 
 
 #: The camera flags of :func:`add_camera_options` -> their RoadCam option.
-CAMERA_FLAGS = {
-    "width": "width", "height": "height", "hfov": "hfov_deg", "pitch": "pitch_deg",
-    "mount_height": "mount_height_m", "forward_offset": "forward_offset_m", "scenery": "scenery",
-}  # fmt: skip
+#: The camera flags of :func:`add_camera_options`: (flag, RoadCam option, what it sets).
+_CAMERA = (
+    ("width", "width", "image width in pixels"),
+    ("height", "height", "image height in pixels"),
+    ("hfov", "hfov_deg", "horizontal field of view in degrees"),
+    ("pitch", "pitch_deg", "camera pitch down in degrees"),
+    ("mount-height", "mount_height_m", "camera height above the road in metres"),
+    ("forward-offset", "forward_offset_m", "camera position ahead of the car's centre in metres"),
+    ("scenery", "scenery", "density of the world's scenery (trees, poles, buildings, ...) in [0, 5]; 0 = bare"),
+)
+#: Each camera flag's argparse name -> its RoadCam option.
+CAMERA_FLAGS = {flag.replace("-", "_"): option for flag, option, _ in _CAMERA}
 
 
 def add_camera_options(g: argparse.ArgumentParser | argparse._ArgumentGroup, *, with_defaults: bool) -> None:
@@ -142,50 +150,15 @@ def add_camera_options(g: argparse.ArgumentParser | argparse._ArgumentGroup, *, 
     ``--forward-offset``, ``--scenery`` and ``--no-camera-effects``: the camera and the
     world's scenery. ``with_defaults`` False leaves an unset flag None (a sweep passes
     on only what was given: :func:`given_camera_options`)."""
-    cam = {k: default_of(CameraConfig, k) for k in ("width", "height", "hfov_deg", "pitch_deg", "mount_height_m",
-                                                     "forward_offset_m")}  # fmt: skip
-    cam["scenery"] = default_of(RoadCamConfig, "scenery")
-
-    def dflt(key: str) -> Any:
-        return cam[key] if with_defaults else None
-
-    size = T.int_in(1, 100_000)  # the camera checks its own range
-    real = T.finite_float()
-    g.add_argument("--width", type=size, default=dflt("width"), help=f"image width in pixels (default: {cam['width']})")
-    g.add_argument(
-        "--height", type=size, default=dflt("height"), help=f"image height in pixels (default: {cam['height']})"
-    )
-    g.add_argument(
-        "--hfov",
-        type=real,
-        default=dflt("hfov_deg"),
-        help=f"horizontal field of view in degrees (default: {cam['hfov_deg']:g})",
-    )
-    g.add_argument(
-        "--pitch",
-        type=real,
-        default=dflt("pitch_deg"),
-        help=f"camera pitch down in degrees (default: {cam['pitch_deg']:g})",
-    )
-    g.add_argument(
-        "--mount-height",
-        type=real,
-        default=dflt("mount_height_m"),
-        help=f"camera height above the road in metres (default: {cam['mount_height_m']:g})",
-    )
-    g.add_argument(
-        "--forward-offset",
-        type=real,
-        default=dflt("forward_offset_m"),
-        help=f"camera position ahead of the car's centre in metres (default: {cam['forward_offset_m']:g})",
-    )
-    g.add_argument(
-        "--scenery",
-        type=T.float_in(0.0, 5.0),
-        default=dflt("scenery"),
-        help=f"density of the world's scenery (trees, poles, buildings, ...) in [0, 5]; 0 = bare "
-        f"(default: {cam['scenery']:g})",
-    )
+    types = {"width": T.int_in(1, 100_000), "height": T.int_in(1, 100_000), "scenery": T.float_in(0.0, 5.0)}
+    for flag, option, what in _CAMERA:  # image sizes and angles: the camera checks its own range
+        default = default_of(RoadCamConfig if option == "scenery" else CameraConfig, option)
+        g.add_argument(
+            f"--{flag}",
+            type=types.get(option, T.finite_float()),
+            default=default if with_defaults else None,
+            help=f"{what} (default: {default:g})",
+        )
     g.add_argument(
         "--no-camera-effects",
         action="store_true",

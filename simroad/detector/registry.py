@@ -408,7 +408,7 @@ def predict_checked(episode: Any, image: np.ndarray, detector: Any) -> np.ndarra
     that names the detector and where it raised (the original chained)."""
     try:
         out = episode.predict(image)
-    except (KeyboardInterrupt, SimroadError):
+    except SimroadError:  # simroad's own message already says what to fix
         raise
     except Exception as exc:
         tb = traceback.extract_tb(exc.__traceback__)

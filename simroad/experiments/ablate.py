@@ -94,8 +94,8 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
 
 
 def preflight_detectors(specs: list[EpisodeSpec]) -> None:
-    """Build each detector the detector cells of ``specs`` name (with its options and
-    filters) and predict the first frame of the first such cell's world with it.
+    """Build each detector the detector cells of ``specs`` name (with its options, and
+    the filters of its first cell) and predict the first frame of that cell's world.
 
     Raises :class:`~simroad.errors.InvalidParameterError` for a detector that cannot
     be built and :class:`~simroad.errors.DetectorFailedError` for one that raises or
@@ -106,7 +106,7 @@ def preflight_detectors(specs: list[EpisodeSpec]) -> None:
     for spec in specs:
         if spec.driver != "detector":
             continue
-        key = (spec.detector, repr(sorted(spec.detector_options.items())), spec.filters)
+        key = (spec.detector, repr(sorted(spec.detector_options.items())))  # once per detector: filters are ours
         if key in tried:
             continue
         tried.add(key)

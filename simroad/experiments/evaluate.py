@@ -55,7 +55,10 @@ FILTER_MASK_TRUTH = {name: FILTER_REGISTRY[name].weathers[0] for name in _MASK_D
 
 def filter_mask(name: str, image: np.ndarray, variant: str = "improved") -> np.ndarray:
     """Where the filter ``name`` (its ``variant``'s steps, as the detector runs them)
-    detects its weather in ``image``: the mask of its last step."""
+    detects its weather in ``image``: the mask of its last step. (Not the steps' masks
+    united, as :func:`~simroad.filters.pipeline.filter_planes_masks` reports where a
+    filter acted: the improved shadow filter's first step, the colour-cast removal,
+    acts on the whole frame.)"""
     mask = np.zeros(image.shape[:2], bool)
     for step in FILTER_REGISTRY[name].steps(variant):
         image, mask = step.function(image, **step.settings)
@@ -150,9 +153,11 @@ def evaluate_frames(
         ``f1`` against the ground-truth noise mask.
     """
     factory = detector_factory or _pretrained
-    rows = []
+    rows, variants = [], []
     for filters in settings:
         det = factory(tuple(filters))
+        if filters:
+            variants.append(getattr(det, "filter_variant", "improved"))
         score, whole = MaskScore(), MaskScore()
         for img, gt, valid in zip(frames.images, frames.masks, frames.valid):
             pred = predict_alone(det, img)
@@ -170,8 +175,8 @@ def evaluate_frames(
             }
         )
     all_filters = sorted({f for setting in settings for f in setting})
-    # the filters' own masks as the detector ran them: its variant (the shipped default otherwise)
-    variant = getattr(factory(tuple(all_filters)), "filter_variant", "improved") if all_filters else "improved"
+    # the filters' own masks as the detectors ran them: their variant (the shipped default otherwise)
+    variant = variants[0] if variants else "improved"
     frows = []
     for name, score in _filter_mask_scores(frames, all_filters, variant).items():
         s = score.summary()

@@ -243,7 +243,7 @@ def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
 #: RoadCam options the grid sets itself, with the field that sets each.
 _GRID_OWNS = {
     "scenario": "scenarios", "noise": "noises", "severity": "severities", "traffic": "traffic",
-    "friction": "friction", "camera_profile": "camera_profile", "duration_s": "steps", "longitudinal": "(always on)",
+    "friction": "friction", "camera_profile": "camera_profile", "duration_s": "steps", "longitudinal": None,
 }  # fmt: skip
 
 
@@ -256,9 +256,9 @@ def _grid_env_options(options: Any) -> dict[str, Any]:
         )
     for key in options:
         if key in _GRID_OWNS:
-            raise InvalidParameterError(
-                f"env_options: {key!r} is set by the grid itself; use its field {_GRID_OWNS[key]!r} instead."
-            )
+            field_ = _GRID_OWNS[key]
+            how = f"use its field {field_!r} instead" if field_ else "a sweep's drivers always control the speed"
+            raise InvalidParameterError(f"env_options: {key!r} is set by the grid itself; {how}.")
     try:
         RoadCamConfig.from_kwargs(**options)
     except SimroadError as exc:

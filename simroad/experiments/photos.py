@@ -86,8 +86,22 @@ def read_road_mask(
     ``shape`` (height, width; when given), a colour or label image without its option,
     and a mask with no road pixel.
     """
-    raw = _read(path, shape, "its image")
-    return _decode(raw, str(path), road_value, road_colour)
+    value, colour = _mask_format(road_value, road_colour)
+    return _decode(_read(path, shape, "its image"), str(path), value, colour)
+
+
+def _mask_format(
+    road_value: int | None, road_colour: Sequence[int] | str | None
+) -> tuple[int | None, tuple[int, int, int] | None]:
+    """The mask options checked once, before any file is read: (road_value, RGB colour)."""
+    colour = check_road_colour(road_colour)
+    if road_value is not None and colour is not None:
+        raise InvalidParameterError(
+            "road_value: give road_value (a label image) or road_colour (a colour mask), not both."
+        )
+    if road_value is not None:
+        check_int_in_range("road_value", road_value, 0, 65535)
+    return road_value, colour
 
 
 def _read(path: str | os.PathLike, shape: tuple[int, int] | None, image: str) -> np.ndarray:
@@ -101,12 +115,8 @@ def _read(path: str | os.PathLike, shape: tuple[int, int] | None, image: str) ->
     return raw
 
 
-def _decode(raw: np.ndarray, name: str, road_value: int | None, road_colour: Sequence[int] | str | None) -> np.ndarray:
-    colour = check_road_colour(road_colour)
-    if road_value is not None and colour is not None:
-        raise InvalidParameterError(
-            "road_value: give road_value (a label image) or road_colour (a colour mask), not both."
-        )
+def _decode(raw: np.ndarray, name: str, road_value: int | None, colour: tuple[int, int, int] | None) -> np.ndarray:
+    """The road of a mask's pixels ``raw`` (as read), with options checked by :func:`_mask_format`."""
     if raw.ndim == 3 and raw.shape[2] == 4:
         raw = raw[..., :3]  # the alpha channel of a PNG says nothing about the road
     if raw.ndim == 3 and raw.shape[2] == 1:
@@ -170,6 +180,7 @@ def load_image_folder(
     (a mask file is never taken for an image). Refuses an image without a mask, by
     name, and masks of another size than their image.
     """
+    value, colour = _mask_format(road_value, road_colour)
     idir, mdir = Path(images), Path(masks)
     for name, d in (("images", idir), ("masks", mdir)):
         if not d.is_dir():
@@ -199,7 +210,7 @@ def load_image_folder(
         bgr = cv2.imread(str(p), cv2.IMREAD_COLOR)
         if bgr is None:
             raise InvalidParameterError(f"images: could not read {str(p)!r} as an image.")
-        road = _decode(_read(m, bgr.shape[:2], p.name), str(m), road_value, road_colour)
+        road = _decode(_read(m, bgr.shape[:2], p.name), str(m), value, colour)
         out.images.append(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
         out.masks.append(road)
         out.noise_masks.append({})

@@ -377,15 +377,29 @@ def paired_differences(records: Sequence[dict], *, metrics: Sequence[str] = PAIR
                 continue
             settings = [(f, [r for r in mine if r["filters"] == f]) for f in filter_order(r["filters"] for r in mine)]
             settings = [(f, s) for f, s in settings if f != "none"] + ([("oracle", oracle)] if oracle else [])
-            scenarios = ["all"] + sorted({r["scenario"] for r in mine})
             for setting, recs in settings:
-                comparison = "oracle" if setting == "oracle" else "filters"
-                for scenario in scenarios:
-                    pick = (lambda r: True) if scenario == "all" else (lambda r, s=scenario: r["scenario"] == s)
-                    label = dict(detector=det, noise=noise, severity=severity, scenario=scenario, setting=setting)
-                    a, b = _by_world(filter(pick, recs)), _by_world(filter(pick, none))
-                    rows.append(_paired_row(a, b, metrics, **label, baseline="none", comparison=comparison))
+                label = dict(detector=det, noise=noise, severity=severity, setting=setting, baseline="none",
+                             comparison="oracle" if setting == "oracle" else "filters")  # fmt: skip
+                rows += _per_scenario(recs, none, (r["scenario"] for r in mine), metrics, label)
         rows += _head_to_head(rs, noise, severity, metrics)
+    return rows
+
+
+#: The identifying keys of a paired row, in their column order.
+_ROW_LABEL = ("detector", "noise", "severity", "scenario", "setting", "baseline", "comparison")
+
+
+def _per_scenario(
+    recs: list[dict], ref: list[dict], scenarios: Iterable[str], metrics: Sequence[str], label: dict
+) -> list[dict]:
+    """The paired rows of ``recs`` against ``ref``: pooled over scenarios (``all``), then
+    one per scenario of ``scenarios``."""
+    rows = []
+    for scenario in ["all", *sorted(set(scenarios))]:
+        a = _by_world(r for r in recs if scenario in ("all", r["scenario"]))
+        b = _by_world(r for r in ref if scenario in ("all", r["scenario"]))
+        full = {**label, "scenario": scenario}
+        rows.append(_paired_row(a, b, metrics, **{k: full[k] for k in _ROW_LABEL}))
     return rows
 
 
@@ -404,13 +418,10 @@ def _head_to_head(rs: list[dict], noise: str, severity: float, metrics: Sequence
     base, rows = dets[0], []
     for det in dets[1:]:
         both = [f for f in filter_order(r["filters"] for r in of[det]) if any(r["filters"] == f for r in of[base])]
-        scenarios = ["all"] + sorted({r["scenario"] for r in of[det]})
         for setting in both:
-            for scenario in scenarios:
-                pick = [r for r in of[det] if r["filters"] == setting and scenario in ("all", r["scenario"])]
-                ref = [r for r in of[base] if r["filters"] == setting and scenario in ("all", r["scenario"])]
-                label = dict(detector=head_to_head_label(det, base), noise=noise, severity=severity, scenario=scenario,
-                             setting=setting)  # fmt: skip
-                rows.append(_paired_row(_by_world(pick), _by_world(ref), metrics, **label, baseline=base,
-                                        comparison="detectors"))  # fmt: skip
+            label = dict(detector=head_to_head_label(det, base), noise=noise, severity=severity, setting=setting,
+                         baseline=base, comparison="detectors")  # fmt: skip
+            mine = [r for r in of[det] if r["filters"] == setting]
+            ref = [r for r in of[base] if r["filters"] == setting]
+            rows += _per_scenario(mine, ref, (r["scenario"] for r in of[det]), metrics, label)
     return rows

@@ -61,6 +61,7 @@ class EpisodeVideo:
         self.env = env
         self.fps = fps
         self.caption = str(caption)
+        self._caption_at: tuple[float, int, int, int] | None = None
         self.frames: list[np.ndarray] = []
         self.trail: list[np.ndarray] = []
 
@@ -78,7 +79,9 @@ class EpisodeVideo:
         cv2.rectangle(bev, (0, 0), (size[0] - 1, size[1] - 1), (255, 255, 255), 1)
         frame[: size[1], -size[0] :] = bev
         if self.caption:
-            _caption(frame, self.caption, width=frame.shape[1] - size[0] - 4)
+            if self._caption_at is None:  # laid out once: every frame of a video has one size
+                self._caption_at = _caption_layout(frame.shape[0], self.caption, width=frame.shape[1] - size[0] - 4)
+            _draw_caption(frame, self.caption, *self._caption_at)
         self.frames.append(frame)
 
     def _draw_trail(self, bev: np.ndarray, pose: np.ndarray, mpp: float, behind_m: float) -> None:
@@ -111,12 +114,17 @@ class EpisodeVideo:
         return self.path
 
 
-def _caption(frame: np.ndarray, text: str, *, width: int) -> None:
-    """Write ``text`` on a dark band at the top left of ``frame`` (in place), scaled to
-    fit ``width`` pixels."""
+def _caption_layout(height: int, text: str, *, width: int) -> tuple[float, int, int, int]:
+    """(font scale, text width, text height, baseline) of a caption that fits ``width``
+    pixels on frames ``height`` pixels tall."""
     font = cv2.FONT_HERSHEY_SIMPLEX
-    (w, h), base = cv2.getTextSize(text, font, 1.0, 1)
-    scale = max(0.25, min(0.5, frame.shape[0] / 500.0, width / max(w, 1)))
+    (w, _), _ = cv2.getTextSize(text, font, 1.0, 1)
+    scale = max(0.25, min(0.5, height / 500.0, width / max(w, 1)))
     (w, h), base = cv2.getTextSize(text, font, scale, 1)
+    return scale, w, h, base
+
+
+def _draw_caption(frame: np.ndarray, text: str, scale: float, w: int, h: int, base: int) -> None:
+    """Write ``text`` on a dark band at the top left of ``frame`` (in place)."""
     frame[: h + base + 4, : min(w + 6, frame.shape[1])] //= 3
-    cv2.putText(frame, text, (3, h + 2), font, scale, (255, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(frame, text, (3, h + 2), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
