@@ -200,7 +200,7 @@ def cmd_ablate(args: argparse.Namespace) -> int:
 
 def cmd_report(args: argparse.Namespace) -> int:
     """``simroad report``: rebuild a sweep's tables and figures."""
-    paths = build_report(args.dir)
+    paths = build_report(*args.dir, out=args.out)
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     return 0
 

@@ -232,9 +232,10 @@ def _add_ablate(sub: Any) -> None:
     p = _command(
         sub,
         "report",
-        description="Rebuild summary.csv, summary.md, summary.json, paired.csv, paired.json, error_rates.png, safety.png and paired.png from DIR/results.jsonl (the same file gives the same report, byte for byte).",
+        description="Rebuild summary.csv, summary.md, summary.json, paired.csv, paired.json, error_rates.png, safety.png and paired.png from DIR/results.jsonl (the same file gives the same report, byte for byte). With several DIRs (sweeps of other detectors, filters or seeds), --out gets one report over all their rows, paired wherever they share worlds and seeds.",
     )
-    p.add_argument("dir", type=T.input_dir(), help="the sweep's output directory")
+    p.add_argument("dir", nargs="+", type=T.input_dir(), help="sweep output directories (each with results.jsonl)")
+    p.add_argument("--out", type=T.output_dir(), help="folder of a report over several DIRs (default: DIR itself)")
     p.set_defaults(func=commands.cmd_report)
 
 

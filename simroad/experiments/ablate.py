@@ -82,7 +82,7 @@ def run_cell(spec: EpisodeSpec, *, episode_fn: Callable[[EpisodeSpec], dict[str,
         record = dict.fromkeys(RECORD_KEYS, math.nan)
         record.update(
             scenario=spec.scenario, noise=spec.noise, severity=spec.severity if spec.noise != "clear" else 0.0,
-            filters=format_filters(spec.filters), driver=spec.driver, seed=spec.seed, steps=0,
+            filters=format_filters(spec.filters), driver=spec.driver, seed=spec.seed, steps=0, step_budget=spec.steps,
             detector="", detector_version="", detector_spec=spec.detector if spec.driver == "detector" else "",
             friction=spec.env_options.get("friction", True),
             camera_profile=profile_record(spec.env_options.get("camera_profile")),

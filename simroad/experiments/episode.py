@@ -16,6 +16,9 @@ detector_version          its ``version`` (``""`` when it has none)
 detector_spec             the spec it was built from (``EpisodeSpec.detector``;
                           ``""`` for the oracle and custom drivers)
 seed, steps               episode seed; steps actually driven
+step_budget               the steps it was given (``EpisodeSpec.steps``): part of
+                          the cell's identity, so sweeps run for different budgets
+                          stay apart
 fnr, fpr                  pooled over the ground pixels of the episode (KITTI style:
                           the episode's summed counts; see below)
 fnr_frame_mean, ...       ``fpr_frame_mean``: means over frames of each frame's own
@@ -87,7 +90,7 @@ __all__ = ["RECORD_KEYS", "EpisodeSpec", "episode_env", "options_record", "profi
 
 RECORD_KEYS = (
     "scenario", "noise", "severity", "filters", "driver", "detector", "detector_version",
-    "detector_spec", "detector_options", "seed", "steps",
+    "detector_spec", "detector_options", "seed", "steps", "step_budget",
     "fnr", "fpr", "fnr_frame_mean", "fpr_frame_mean", "fnr_image", "fpr_image", "iou", "f1",
     "collided", "offroad_steps", "offroad_fraction", "lane_departures",
     "lateral_rmse_m", "lateral_max_m", "heading_rmse_deg", "distance_m",
@@ -261,6 +264,7 @@ def run_episode(
         "detector_options": options_record(spec.detector_options) if kind == "detector" and driver is None else {},
         "seed": spec.seed,
         "steps": steps,
+        "step_budget": spec.steps,
     }
     record.update(_mask_record(masks, whole))
     record.update(safety.result())

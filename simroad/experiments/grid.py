@@ -220,8 +220,12 @@ class AblationGrid:
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
-    """The identity of one grid cell (one episode), from its spec or its record."""
+def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any], *, default_budget: int | None = None) -> str:
+    """The identity of one grid cell (one episode), from its spec or its record: the
+    world, weather, filters, driver, detector, seed and step budget.
+
+    A record written before records held ``step_budget`` takes ``default_budget`` (the
+    ``steps`` of the sweep's ``grid.json``) or, without one, the steps it drove."""
 
     def get(key: str) -> Any:
         if isinstance(spec_or_record, Mapping):
@@ -232,11 +236,13 @@ def cell_key(spec_or_record: EpisodeSpec | Mapping[str, Any]) -> str:
     filters = filters if isinstance(filters, str) else format_filters(filters)
     if isinstance(spec_or_record, Mapping):
         detector = spec_or_record.get("detector_spec", "")
+        budget = spec_or_record.get("step_budget", default_budget if default_budget is not None else get("steps"))
     else:
         detector = spec_or_record.detector if spec_or_record.driver == "detector" else ""
+        budget = spec_or_record.steps
     return (
         f"{get('scenario')}|{get('noise')}|{float(get('severity')):g}|{filters}|{get('driver')}|{detector}"
-        f"|{int(get('seed'))}"
+        f"|{int(get('seed'))}|{int(budget)} steps"
     )
 
 

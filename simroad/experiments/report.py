@@ -39,10 +39,18 @@ from pathlib import Path
 
 import numpy as np
 
-from simroad.core.validation import check_input_dir, check_input_file
+from simroad.core.validation import check_input_dir, check_input_file, ensure_writable_dir
 from simroad.errors import InvalidParameterError
 from simroad.experiments.report_figures import error_rates_figure, paired_figure, safety_figure
-from simroad.experiments.results import RESULTS_NAME, BadLine, read_results
+from simroad.experiments.results import (
+    RESULTS_NAME,
+    BadLine,
+    check_merge_target,
+    grid_steps,
+    merge_results,
+    read_results,
+    write_merged,
+)
 from simroad.experiments.stats import (
     ALL_FILTERS,
     detectors,
@@ -332,18 +340,32 @@ def _write_bad_lines(bad: list[BadLine], path: Path) -> None:
         fh.write(text)
 
 
-def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | None = None) -> dict[str, Path]:
-    """Rebuild the report files of the sweep in ``directory`` from its results.jsonl.
+def build_report(
+    directory: str | os.PathLike,
+    *more: str | os.PathLike,
+    out: str | os.PathLike | None = None,
+    log: Callable[[str], None] | None = None,
+) -> dict[str, Path]:
+    """Build the report of the sweep in ``directory`` (and of more sweeps) from their results.jsonl.
 
-    ``results.jsonl`` is only read, never changed. Every line that is not a valid row
-    (:func:`~simroad.experiments.results.check_row`: not JSON, torn, a wrong type, a
-    missing key, a second row of one cell) stays out of the summary and is named —
-    line number and why — through ``log`` and in ``summary.md``.
+    Every ``results.jsonl`` is only read, never changed. Every line that is not a valid
+    row (:func:`~simroad.experiments.results.check_row`: not JSON, torn, a wrong type,
+    a missing key, a second row of one cell, in one file or across files) stays out of
+    the summary and is named — file, line number and why — through ``log`` and in
+    ``summary.md``. Rows of different step budgets are different cells; when the rows
+    hold more than one budget, each scenario is reported per budget (``racetrack (150
+    steps)``), so episodes of different lengths are neither pooled nor paired.
 
     Parameters
     ----------
-    directory : path
-        A sweep's output directory (holding ``results.jsonl``).
+    directory, *more : path
+        Sweep output directories (each holding ``results.jsonl``).
+    out : path, optional
+        Where the report goes: by default ``directory`` itself (one sweep). A report
+        over several sweeps needs a folder of its own; it also receives the rows used
+        (``results.jsonl``, so ``simroad report OUT`` rebuilds it) and ``sources.json``
+        (each source and how many of its rows were used). A folder holding a sweep's
+        own results is refused.
     log : callable, optional
         Receives one message per line not used (default: print to stderr).
 
@@ -352,36 +374,69 @@ def build_report(directory: str | os.PathLike, *, log: Callable[[str], None] | N
     dict of str to Path
         File name -> path of each file written: ``summary.csv``, ``summary.json``,
         ``summary.md``, ``paired.csv``, ``paired.json``, ``error_rates.png``,
-        ``safety.png`` and ``paired.png`` (see the module docstring for their contents).
+        ``safety.png`` and ``paired.png`` (see the module docstring for their contents),
+        plus ``results.jsonl`` and ``sources.json`` when ``out`` is not ``directory``.
     """
+    sources = [_source(d) for d in (directory, *more)]
+    target = sources[0] if out is None else ensure_writable_dir("out", out)
+    merged = target.resolve() != sources[0].resolve() or len(sources) > 1
+    if out is None and len(sources) > 1:
+        raise InvalidParameterError(
+            f"out: a report over {len(sources)} sweeps needs a folder of its own; pass out= (--out) a new folder."
+        )
+    if merged:
+        check_merge_target(target, sources)
+    used: dict[str, int] = {}
+    try:
+        if merged:
+            records, bad, used = merge_results(sources)
+        else:
+            records, bad = read_results(sources[0] / RESULTS_NAME, default_budget=grid_steps(sources[0]))
+    except OSError as exc:
+        raise InvalidParameterError(f"dir: cannot read {exc.filename!r} ({exc.strerror or exc}).") from None
+    say = log or (lambda message: print(message, file=sys.stderr))
+    for b in bad:
+        say(f"{b}; not used" if b.source else f"{sources[0] / RESULTS_NAME}: {b}; not used")
+    if not records:
+        raise InvalidParameterError(
+            f"dir: {', '.join(repr(str(d / RESULTS_NAME)) for d in sources)} "
+            f"{'hold' if len(sources) > 1 else 'holds'} no finished episode yet "
+            f"({len(bad)} line(s) not usable)."
+        )
+    written = {}
+    if merged:
+        written = write_merged(target, used, records)
+    shown = _per_budget(records)
+    rows = summarise(shown)
+    paired = paired_differences(shown)
+    out_paths = {name: target / name for name in _FILES}
+    _write_csv(rows, out_paths["summary.csv"])
+    out_paths["summary.json"].write_text(json.dumps(rows, indent=1, default=str))
+    _write_csv(paired, out_paths["paired.csv"])
+    out_paths["paired.json"].write_text(json.dumps(paired, indent=1, default=str))
+    _write_md(shown, rows, paired, out_paths["summary.md"])
+    _write_failed(shown, out_paths["summary.md"])
+    if bad:
+        _write_bad_lines(bad, out_paths["summary.md"])
+    error_rates_figure(shown, out_paths["error_rates.png"])
+    safety_figure(shown, out_paths["safety.png"])
+    paired_figure(paired, out_paths["paired.png"])
+    return {**out_paths, **written}
+
+
+def _source(directory: str | os.PathLike) -> Path:
+    """A sweep directory holding a readable results.jsonl."""
     d = check_input_dir("dir", directory)
     path = d / RESULTS_NAME
     if not path.exists():
         raise InvalidParameterError(f"dir: no {RESULTS_NAME} in {str(d)!r}; run 'simroad ablate --out {d}' first.")
     check_input_file("dir", path)
-    try:
-        records, bad = read_results(path)
-    except OSError as exc:
-        raise InvalidParameterError(f"dir: cannot read {str(path)!r} ({exc.strerror or exc}).") from None
-    say = log or (lambda message: print(message, file=sys.stderr))
-    for b in bad:
-        say(f"{path}: {b}; not used")
-    if not records:
-        raise InvalidParameterError(
-            f"dir: {str(path)!r} holds no finished episode yet ({len(bad)} line(s) not usable)."
-        )
-    rows = summarise(records)
-    paired = paired_differences(records)
-    out = {name: d / name for name in _FILES}
-    _write_csv(rows, out["summary.csv"])
-    out["summary.json"].write_text(json.dumps(rows, indent=1, default=str))
-    _write_csv(paired, out["paired.csv"])
-    out["paired.json"].write_text(json.dumps(paired, indent=1, default=str))
-    _write_md(records, rows, paired, out["summary.md"])
-    _write_failed(records, out["summary.md"])
-    if bad:
-        _write_bad_lines(bad, out["summary.md"])
-    error_rates_figure(records, out["error_rates.png"])
-    safety_figure(records, out["safety.png"])
-    paired_figure(paired, out["paired.png"])
-    return out
+    return d
+
+
+def _per_budget(records: list[dict]) -> list[dict]:
+    """The records as reported: with more than one step budget among them, each
+    scenario named with its budget, so that only episodes of one length are pooled."""
+    if len({r.get("step_budget") for r in records}) <= 1:
+        return records
+    return [{**r, "scenario": f"{r['scenario']} ({r.get('step_budget') or '?'} steps)"} for r in records]

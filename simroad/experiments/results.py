@@ -18,8 +18,8 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +28,28 @@ from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.grid import AblationGrid, cell_key
 from simroad.experiments.outlock import _stderr
 
-__all__ = ["REJECTED_NAME", "RESULTS_NAME", "ROW_TYPES", "BadLine", "ResultStore", "check_row", "read_results"]
+__all__ = [
+    "REJECTED_NAME",
+    "RESULTS_NAME",
+    "ROW_TYPES",
+    "SOURCES_NAME",
+    "BadLine",
+    "ResultStore",
+    "check_merge_target",
+    "check_row",
+    "grid_steps",
+    "merge_results",
+    "read_results",
+    "write_merged",
+]
 
 RESULTS_NAME = "results.jsonl"
 REJECTED_NAME = "results.rejected.jsonl"
+#: A merged report's record of its sources (:func:`write_merged`).
+SOURCES_NAME = "sources.json"
 
 #: Expected type of each key of a row, by kind: ``text`` a string; ``count`` an int
-#: >= 0 (not a bool); ``severity`` a number in [0, 1]; ``number`` an int or float
+#: >= 0 (not a bool); ``budget`` an int >= 1; ``severity`` a number in [0, 1]; ``number`` an int or float
 #: (NaN for a failed episode); ``flag`` a bool or a number (NaN for a failed episode);
 #: ``number|null`` a number or null; ``text|null`` a string or null (optional key);
 #: ``label`` a string, empty where it does not apply (the oracle has no detector);
@@ -44,6 +59,7 @@ ROW_TYPES: dict[str, str] = {
     **dict.fromkeys(("scenario", "noise", "filters", "driver"), "text"),
     **dict.fromkeys(("detector", "detector_version", "detector_spec"), "label"),
     **dict.fromkeys(("seed", "steps"), "count"),
+    "step_budget": "budget",
     "severity": "severity",
     "collided": "flag",
     "min_ttc_s": "number|null",
@@ -54,10 +70,8 @@ ROW_TYPES: dict[str, str] = {
     "env_options": "table",
     "error": "text|null",
 }
-#: Keys a row may lack (``camera_profile``, ``start_speed_m_s``, ``detector_options``,
-#: ``env_options``: rows written before
-#: records held them).
-_OPTIONAL = ("error", "camera_profile", "start_speed_m_s", "detector_options", "env_options")
+#: Keys a row may lack (rows written before records held them).
+_OPTIONAL = ("error", "camera_profile", "start_speed_m_s", "detector_options", "env_options", "step_budget")
 
 
 def _is_number(v: Any) -> bool:
@@ -67,6 +81,7 @@ def _is_number(v: Any) -> bool:
 _CHECKS: dict[str, Callable[[Any], bool]] = {
     "text": lambda v: isinstance(v, str) and v != "",
     "count": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 0,
+    "budget": lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= 1,
     "severity": lambda v: _is_number(v) and 0.0 <= v <= 1.0,
     "number": _is_number,
     "flag": lambda v: isinstance(v, bool) or _is_number(v),
@@ -78,6 +93,7 @@ _CHECKS: dict[str, Callable[[Any], bool]] = {
 _EXPECTED = {
     "text": "a non-empty string",
     "count": "an integer >= 0",
+    "budget": "an integer >= 1",
     "severity": "a number in [0, 1]",
     "number": "a number",
     "flag": "true, false or a number",
@@ -124,9 +140,10 @@ class BadLine:
     text: str
     torn: bool = False
     duplicate: bool = False
+    source: str = ""  # the file, when lines of several files are read together
 
     def __str__(self) -> str:
-        return f"line {self.number}: {self.reason}"
+        return f"{self.source + ' ' if self.source else ''}line {self.number}: {self.reason}"
 
 
 def _parse_line(number: int, raw: bytes, *, torn: bool) -> dict | BadLine:
@@ -143,13 +160,17 @@ def _parse_line(number: int, raw: bytes, *, torn: bool) -> dict | BadLine:
     return row
 
 
-def read_results(path: str | os.PathLike) -> tuple[list[dict], list[BadLine]]:
+def read_results(path: str | os.PathLike, *, default_budget: int | None = None) -> tuple[list[dict], list[BadLine]]:
     """Read a results file without changing it: the valid rows, one per cell, and the bad lines.
 
     Parameters
     ----------
     path : path
         A ``results.jsonl``.
+    default_budget : int, optional
+        The step budget of rows written before rows held ``step_budget`` (the ``steps``
+        of the sweep's ``grid.json``, :func:`grid_steps`); without it such a row's cell
+        takes the steps it drove.
 
     Returns
     -------
@@ -159,26 +180,64 @@ def read_results(path: str | os.PathLike) -> tuple[list[dict], list[BadLine]]:
         Every other line, with its number and why (``torn`` set for a torn last line,
         ``duplicate`` for a later row of a cell already recorded).
     """
-    data = Path(path).read_bytes()
+    rows: dict[str, tuple[dict, str, int]] = {}
+    bad: list[BadLine] = []
+    _collect(Path(path), default_budget, rows, bad, source="")
+    return [row for row, _, _ in rows.values()], bad
+
+
+def _collect(
+    path: Path, default_budget: int | None, rows: dict[str, tuple[dict, str, int]], bad: list[BadLine], source: str
+) -> None:
+    """Add the valid rows of ``path`` to ``rows`` (cell -> row, file, line) unless their
+    cell is there already, and every other line to ``bad``."""
+    data = path.read_bytes()
     lines = data.split(b"\n")
     complete = lines[-1] == b""
     if complete:
         lines.pop()
-    rows: dict[str, dict] = {}
-    first_line: dict[str, int] = {}
-    bad: list[BadLine] = []
     for i, raw in enumerate(lines, start=1):
         parsed = _parse_line(i, raw, torn=i == len(lines) and not complete)
         if isinstance(parsed, BadLine):
-            bad.append(parsed)
+            bad.append(replace(parsed, source=source))
             continue
-        key = cell_key(parsed)
+        if default_budget is not None:
+            parsed.setdefault("step_budget", default_budget)
+        key = cell_key(parsed, default_budget=default_budget)
         if key in rows:
+            _, where, line = rows[key]
+            of = f"line {line}" if where == source else f"{where} line {line}"
             text = raw.decode("utf-8", errors="surrogateescape")
-            bad.append(BadLine(i, f"duplicate of line {first_line[key]} (cell {key})", text, duplicate=True))
+            bad.append(BadLine(i, f"duplicate of {of} (cell {key})", text, duplicate=True, source=source))
             continue
-        rows[key], first_line[key] = parsed, i
-    return list(rows.values()), bad
+        rows[key] = (parsed, source, i)
+
+
+def merge_results(
+    directories: Sequence[str | os.PathLike],
+) -> tuple[list[dict], list[BadLine], dict[str, int]]:
+    """The valid rows of several sweeps' ``results.jsonl``, one per cell, and every line not used.
+
+    Each file is read as :func:`read_results` reads it (rows written before rows held
+    ``step_budget`` take the ``steps`` of the ``grid.json`` beside them). A cell in more
+    than one file keeps its first row; each later one is a bad line naming the first.
+
+    Returns
+    -------
+    rows : list of dict
+        The rows used, file by file in the order given.
+    bad : list of BadLine
+        Every other line, with its file in ``source``.
+    used : dict of str to int
+        Each file -> how many of its rows were used.
+    """
+    rows: dict[str, tuple[dict, str, int]] = {}
+    bad: list[BadLine] = []
+    names = [str(Path(d) / RESULTS_NAME) for d in directories]
+    for d, name in zip(directories, names, strict=True):
+        _collect(Path(name), grid_steps(d), rows, bad, source=name)
+    used = {name: sum(where == name for _, where, _ in rows.values()) for name in names}
+    return [row for row, _, _ in rows.values()], bad, used
 
 
 class ResultStore:
@@ -202,6 +261,7 @@ class ResultStore:
         self.grid_path = self.dir / "grid.json"
         self.rejected_path = self.dir / REJECTED_NAME
         self.log = log or _stderr
+        self.default_budget: int | None = None
 
     def open(self, grid: AblationGrid, *, fresh: bool = False) -> dict[str, dict]:
         """Prepare the directory for ``grid`` and return the records already done.
@@ -209,6 +269,7 @@ class ResultStore:
         The caller holds the directory's lock (:mod:`simroad.experiments.outlock`).
         """
         meta = {"fingerprint": grid.fingerprint(), "grid": asdict(grid)}
+        self.default_budget = grid.steps  # a grown grid runs the same steps as the old one
         if self.grid_path.exists() and not fresh:
             try:
                 old = json.loads(self.grid_path.read_text())
@@ -234,7 +295,7 @@ class ResultStore:
         the valid records by cell. Any other bad line raises :class:`SimroadError`."""
         if not self.path.exists():
             return {}
-        rows, bad = read_results(self.path)
+        rows, bad = read_results(self.path, default_budget=self.default_budget)
         others = [b for b in bad if not (b.torn or b.duplicate)]
         if others:
             listed = "; ".join(str(b) for b in others[:10]) + (
@@ -252,7 +313,7 @@ class ResultStore:
                 fh.write(b"\n")
                 fh.flush()
                 os.fsync(fh.fileno())
-        return {cell_key(r): r for r in rows}
+        return {cell_key(r, default_budget=self.default_budget): r for r in rows}
 
     def _move_aside(self, bad: list[BadLine]) -> None:
         stamp = time.strftime("%Y-%m-%dT%H:%M:%S%z")
@@ -287,7 +348,37 @@ class ResultStore:
 
     def records(self) -> list[dict]:
         """The valid records, one per cell, read without changing the file (bad lines skipped)."""
-        return read_results(self.path)[0] if self.path.exists() else []
+        return read_results(self.path, default_budget=self.default_budget)[0] if self.path.exists() else []
+
+
+def check_merge_target(target: Path, sources: list[Path]) -> None:
+    """Refuse to write merged rows over a source or over a sweep's own results."""
+    if any(target.resolve() == d.resolve() for d in sources):
+        raise InvalidParameterError(
+            f"out: {str(target)!r} is one of the sweeps reported; a report over several sweeps goes to a new folder."
+        )
+    if (target / RESULTS_NAME).exists() and not (target / SOURCES_NAME).exists():
+        raise InvalidParameterError(
+            f"out: {str(target)!r} holds a sweep's own {RESULTS_NAME}, which a merged report would replace. "
+            "Choose a new folder."
+        )
+
+
+def write_merged(target: Path, used: dict[str, int], records: list[dict]) -> dict[str, Path]:
+    """The rows used and where they came from, so that ``simroad report OUT`` rebuilds the report."""
+    (target / RESULTS_NAME).write_text("".join(json.dumps(r) + "\n" for r in records))
+    listed = [{"results": name, "rows_used": n} for name, n in used.items()]
+    (target / SOURCES_NAME).write_text(json.dumps({"sources": listed, "rows": len(records)}, indent=1) + "\n")
+    return {RESULTS_NAME: target / RESULTS_NAME, SOURCES_NAME: target / SOURCES_NAME}
+
+
+def grid_steps(directory: str | os.PathLike) -> int | None:
+    """The ``steps`` of the grid in ``directory``'s ``grid.json``; None without a readable one."""
+    try:
+        steps = json.loads((Path(directory) / "grid.json").read_text())["grid"]["steps"]
+    except (OSError, ValueError, UnicodeDecodeError, KeyError, TypeError):
+        return None
+    return steps if isinstance(steps, int) and not isinstance(steps, bool) and steps > 0 else None
 
 
 def _atomic_write(path: Path, data: str | bytes) -> None:

@@ -27,7 +27,7 @@ def stub_episode(spec):
     record = dict.fromkeys(RECORD_KEYS, 0.0)
     record["camera_profile"] = record["detector_options"] = record["env_options"] = {}
     record.update(scenario=spec.scenario, noise=spec.noise, severity=spec.severity, filters=format_filters(spec.filters),
-                  driver=spec.driver, seed=spec.seed, steps=spec.steps)  # fmt: skip
+                  driver=spec.driver, seed=spec.seed, steps=spec.steps, step_budget=spec.steps)  # fmt: skip
     detector = spec.detector if spec.driver == "detector" else ""
     record.update(detector=detector, detector_version="", detector_spec=detector)
     record["fnr"] = (spec.seed * 7919 % 101) / 1000.0

@@ -92,7 +92,7 @@ def test_result_rows_without_a_profile_still_count_and_bad_ones_are_named():
     row = {**dict.fromkeys(RECORD_KEYS, 0.0), "scenario": "highway", "noise": "clear", "filters": "none",
            "driver": "oracle", "detector": "", "detector_version": "", "detector_spec": "", "seed": 0, "steps": 1,
            "min_ttc_s": None, "min_stopping_margin_m": None, "error": None}  # fmt: skip
-    for key in ("camera_profile", "detector_options", "env_options"):
+    for key in ("camera_profile", "detector_options", "env_options", "step_budget"):
         row.pop(key)
-    assert check_row(row) is None  # written before records held the camera and the options
+    assert check_row(row) is None  # written before records held the camera, the options and the budget
     assert "camera_profile" in check_row({**row, "camera_profile": "default"})

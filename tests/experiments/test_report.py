@@ -19,7 +19,16 @@ from simroad.experiments.stats import mean_interval, proportion_interval
 def _record(**kw):
     r = dict.fromkeys(RECORD_KEYS, 0.0)
     r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
-    r.update(scenario="racetrack", noise="rain", severity=0.7, filters="none", driver="detector", seed=0, steps=5)
+    r.update(
+        scenario="racetrack",
+        noise="rain",
+        severity=0.7,
+        filters="none",
+        driver="detector",
+        seed=0,
+        steps=5,
+        step_budget=5,
+    )
     r.update(detector="paper", detector_version="", detector_spec="paper")
     r.update(collided=False, min_ttc_s=None, error=None)
     r.update(kw)

@@ -27,7 +27,16 @@ from stub_cell import stub_cell  # noqa: E402
 def _record(**kw):
     r = dict.fromkeys(RECORD_KEYS, 0.0)
     r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
-    r.update(scenario="racetrack", noise="rain", severity=0.7, filters="none", driver="detector", seed=0, steps=5)
+    r.update(
+        scenario="racetrack",
+        noise="rain",
+        severity=0.7,
+        filters="none",
+        driver="detector",
+        seed=0,
+        steps=5,
+        step_budget=5,
+    )
     r.update(detector="paper", detector_version="", detector_spec="paper")
     r.update(collided=False, offroad_steps=0, lane_departures=0, min_ttc_s=None, error=None)
     r.update(kw)
@@ -44,7 +53,16 @@ def test_every_record_key_has_a_type_and_real_records_are_valid():
     assert check_row(_record(min_ttc_s=1.5, collided=True, error="RuntimeError: boom")) is None
     # a failed episode: every metric NaN (run_cell), identity kept
     failed = dict.fromkeys(RECORD_KEYS, math.nan)
-    failed.update(scenario="racetrack", noise="clear", severity=0.0, filters="none", driver="oracle", seed=1, steps=0)
+    failed.update(
+        scenario="racetrack",
+        noise="clear",
+        severity=0.0,
+        filters="none",
+        driver="oracle",
+        seed=1,
+        steps=0,
+        step_budget=5,
+    )
     failed.update(detector="", detector_version="", detector_spec="", camera_profile={"tone_gamma": 1.6},
                   detector_options={}, env_options={"width": 160})  # fmt: skip
     assert check_row(json.loads(json.dumps(failed))) is None
