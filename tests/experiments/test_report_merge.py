@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -113,7 +113,7 @@ def test_a_merged_report_refuses_a_sweep_folder_or_no_out(tmp_path):
         build_report(a, b, out=b)
     other = _sweep(tmp_path, "c", replace(PAPER, seeds=1))
     before = (other / "results.jsonl").read_bytes()
-    with pytest.raises(SimroadError, match="holds a sweep's own results.jsonl"):
+    with pytest.raises(SimroadError, match=r"holds a sweep's own results\.jsonl"):
         build_report(a, b, out=other)
     assert (other / "results.jsonl").read_bytes() == before
 
