@@ -12,6 +12,8 @@ import numpy as np
 __all__ = [
     "ASPHALT",
     "BUILDING",
+    "CITYSCAPES_LABELS",
+    "CITYSCAPES_LABEL_ID",
     "GROUND_MATERIALS",
     "GUARDRAIL",
     "IS_GROUND",
@@ -70,3 +72,19 @@ def _lookup(codes: frozenset[int]) -> np.ndarray:
 #: ``IS_GROUND[material]`` / ``IS_ROAD[material]``: vectorised membership tests.
 IS_GROUND = _lookup(GROUND_MATERIALS)
 IS_ROAD = _lookup(ROAD_MATERIALS)
+
+
+#: Cityscapes ``labelId`` of every material (Cordts et al. 2016, ``cityscapesscripts``
+#: ``labels.py``): road 7 (asphalt and markings), sidewalk 8 (kerbs too, as Cityscapes
+#: labels them), ground 6 (the shoulder), terrain 22 (the roadside), car 26 (every
+#: vehicle), sky 23, vegetation 21, pole 17, traffic sign 20, building 11, wall 12,
+#: guard rail 14, bridge 15 (an overpass).
+CITYSCAPES_LABEL_ID: dict[int, int] = {
+    ROADSIDE: 22, SHOULDER: 6, ASPHALT: 7, MARKING: 7, VEHICLE: 26, SKY: 23, SIDEWALK: 8, KERB: 8,
+    VEGETATION: 21, POLE: 17, SIGN: 20, BUILDING: 11, WALL: 12, GUARDRAIL: 14, OVERPASS: 15,
+}  # fmt: skip
+#: ``CITYSCAPES_LABELS[material]``: the label image of a material map (0, unlabeled,
+#: for a code that is not a material).
+CITYSCAPES_LABELS = np.zeros(256, dtype=np.uint8)
+CITYSCAPES_LABELS[list(CITYSCAPES_LABEL_ID)] = list(CITYSCAPES_LABEL_ID.values())
+CITYSCAPES_LABELS.flags.writeable = False

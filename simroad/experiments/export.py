@@ -11,18 +11,38 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from simroad.camera.codes import CITYSCAPES_LABEL_ID, CITYSCAPES_LABELS, MATERIAL_NAMES
 from simroad.core.validation import check_int_in_range, check_output_dir, ensure_writable_dir
 from simroad.envs import RoadCamEnv
 from simroad.errors import InvalidParameterError
 from simroad.experiments.rollout import drive_autopilot
 
-__all__ = ["export_frames"]
+__all__ = ["FILES", "export_frames"]
+
+#: What each file of a frame holds (``N`` the frame's 4-digit index).
+FILES = {
+    "frame_N.png": "RGB camera frame, 8-bit sRGB",
+    "road_N.png": "ground-truth road mask: 255 road (asphalt and markings on visible ground), 0 not",
+    "depth_N.png": "16-bit depth, centimetres (metres = value / 100): the ground distance along the view "
+    "to the ground or object each pixel sees; 0 for the sky and beyond the camera's max_range_m",
+    "material_N.png": "8-bit material code of each pixel (meta.json 'materials' names them)",
+    "labels_N.png": "8-bit Cityscapes labelId of each pixel (meta.json 'cityscapes_label_ids')",
+    "noise_<name>_N.png": "255 where that weather changed the frame (rain, snow, shadow, glare, fog, ...; "
+    "windscreen: drops and the wiper on the glass), 0 elsewhere; only the masks the weather has",
+}
 
 
 def _write_png(path: Path, rgb_or_grey: np.ndarray) -> None:
     img = rgb_or_grey if rgb_or_grey.ndim == 2 else cv2.cvtColor(rgb_or_grey, cv2.COLOR_RGB2BGR)
     if not cv2.imwrite(str(path), img):
         raise InvalidParameterError(f"out: could not write {str(path)!r}. Check free space and permissions.")
+
+
+def _depth_centimetres(depth: np.ndarray) -> np.ndarray:
+    """``depth`` (float metres, inf where nothing is in range) as uint16 centimetres, 0 for none."""
+    finite = np.isfinite(depth)
+    cm = np.where(finite, np.rint(np.where(finite, depth, 0.0) * 100.0), 0.0)
+    return np.clip(cm, 0, np.iinfo(np.uint16).max).astype(np.uint16)
 
 
 def export_frames(
@@ -34,11 +54,16 @@ def export_frames(
     env_kwargs: dict[str, Any] | None = None,
     progress: bool = False,
 ) -> Path:
-    """Drive the ground-truth autopilot and write frames, GT masks and ``meta.json``.
+    """Drive the ground-truth autopilot and write frames, their ground truth and ``meta.json``.
 
-    Files: ``frame_0000.png`` (RGB camera frame), ``road_0000.png`` (GT road mask,
-    0/255), and ``meta.json`` with the camera intrinsics and mounting, the
-    environment options and the ego pose of every frame.
+    Files per frame ``N`` (formats in :data:`FILES`, also written to ``meta.json``):
+    ``frame_N.png`` (RGB camera frame), ``road_N.png`` (road mask, 0/255),
+    ``depth_N.png`` (16-bit, centimetres, 0 where no ground or object is in range),
+    ``material_N.png`` (simroad's material codes), ``labels_N.png`` (Cityscapes label
+    ids) and ``noise_<name>_N.png`` (0/255, one per mask of the weather: its noise
+    names and ``windscreen``). ``meta.json`` holds the camera intrinsics and mounting,
+    the environment options, the ego pose of every frame, the file formats, the
+    material names and the Cityscapes id of each material.
 
     Parameters
     ----------
@@ -69,6 +94,11 @@ def export_frames(
             obs, info = drive_autopilot(env, every, reset_seed=int(seed) + k)
         _write_png(out_dir / f"frame_{k:04d}.png", obs)
         _write_png(out_dir / f"road_{k:04d}.png", info["road_mask"].astype(np.uint8) * 255)
+        _write_png(out_dir / f"depth_{k:04d}.png", _depth_centimetres(info["depth"]))
+        _write_png(out_dir / f"material_{k:04d}.png", info["material"])
+        _write_png(out_dir / f"labels_{k:04d}.png", CITYSCAPES_LABELS[info["material"]])
+        for name, mask in info["noise_masks"].items():
+            _write_png(out_dir / f"noise_{name}_{k:04d}.png", mask.astype(np.uint8) * 255)
         x, y, h = (float(v) for v in info["pose"])
         frames_meta.append(
             {"index": k, "x_m": x, "y_m": y, "heading_rad": h, "time_s": info["time_s"], "speed_m_s": info["speed_m_s"]}
@@ -93,6 +123,9 @@ def export_frames(
             "max_range_m": c.max_range_m,
         },
         "frames": frames_meta,
+        "files": FILES,
+        "materials": {str(code): name for code, name in MATERIAL_NAMES.items()},
+        "cityscapes_label_ids": {MATERIAL_NAMES[code]: label for code, label in CITYSCAPES_LABEL_ID.items()},
     }
     (out_dir / "meta.json").write_text(json.dumps(meta, indent=1))
     env.close()
