@@ -235,7 +235,7 @@ def _pct(x: float, digits: int = 1) -> str:
 def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     """A compact markdown table: per noise and severity (pooled over scenarios and
     seeds), FNR / FPR for every filter set; off-road fraction, driving score, route
-    completion and mean speed for no filters, all filters and the oracle; the worst
+    completion, mean speed and slide steps for no filters, all filters and the oracle; the worst
     whole-image minus ground FPR over the detector's settings (points); the paired
     all-filters − none driving-score difference with its interval, per detector, and
     each detector − the first per filter set (``paired`` as
@@ -253,7 +253,7 @@ def headline(records: list[dict], *, paired: list[dict] | None = None) -> str:
     pairs = [(d, f) for d in dets for f in shown]
     names = " / ".join([_setting(d, f, many) for d, f in pairs] + ["oracle"])
     head += [f"off-road % ({names})", f"driving score ({names})", f"route completion % ({names})"]
-    head += [f"mean speed m/s ({names})", "max whole − ground FPR, pts"]
+    head += [f"mean speed m/s ({names})", f"slide steps ({names})", "max whole − ground FPR, pts"]
     # paired columns: all filters − none per detector, each detector − the first per shown filter set
     compared = [(d, ALL_FILTERS, "all − none" + (f" ({d})" if many else "")) for d in dets if ALL_FILTERS in shown]
     compared += [(head_to_head_label(d, dets[0]), f, f"{head_to_head_label(d, dets[0])} ({_setting('', f, False)})")
@@ -277,7 +277,7 @@ _PAIRED_ID = ("detector", "noise", "severity", "scenario", "setting")
 
 def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list[tuple[str, str]]) -> list[str]:
     """One noise x severity of :func:`headline`: FNR / FPR per setting; off-road,
-    driving score, route completion and mean speed of ``pairs`` and the oracle (why a
+    driving score, route completion, mean speed and slide steps of ``pairs`` and the oracle (why a
     score moved: a car that crawls stays on the road and completes little); the worst
     whole-image minus ground FPR."""
 
@@ -293,6 +293,7 @@ def _headline_cells(rs: list[dict], settings: list[tuple[str, str]], pairs: list
     cells.append(" / ".join(f"{_mean(g, 'driving_score'):.2f}" if g else "–" for g in groups))
     cells.append(" / ".join(_pct(_mean(g, "route_completion"), 0) if g else "–" for g in groups))
     cells.append(" / ".join(f"{_mean(g, 'mean_speed_m_s'):.1f}" if g else "–" for g in groups))
+    cells.append(" / ".join(f"{_mean(g, 'slide_steps'):.1f}" if g else "–" for g in groups))
     sky = [_mean(det, "fpr_image") - _mean(det, "fpr") for det in (pick(d, f) for d, f in settings) if det]
     sky = [x for x in sky if math.isfinite(x)]
     cells.append(_pct(max(sky), 2) if sky else "–")

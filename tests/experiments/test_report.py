@@ -47,10 +47,12 @@ def sweep(tmp_path):
     for seed, fnr in FNR.items():
         # no filters: sky costs 0.1, 0.2, 0.3 points of whole-image FPR; all filters: 4 points
         records.append(_record(seed=seed, fnr=fnr, fpr=fnr / 10, fpr_image=fnr / 10 + 0.001 * (seed + 1),
-                               offroad_fraction=0.1 * seed, driving_score=1 - fnr))  # fmt: skip
+                               offroad_fraction=0.1 * seed, driving_score=1 - fnr, route_completion=0.1,
+                               mean_speed_m_s=1.0 + seed, slide_steps=seed))  # fmt: skip
         records.append(_record(seed=seed, filters="shadow+rain_snow+light", fnr=fnr / 2, fpr=0.01, fpr_image=0.05,
-                               driving_score=0.9))  # fmt: skip
-        records.append(_record(seed=seed, driver="oracle", fnr=0.0, driving_score=1.0, collided=seed == 2))
+                               driving_score=0.9, route_completion=0.5, mean_speed_m_s=5.0, slide_steps=2))  # fmt: skip
+        records.append(_record(seed=seed, driver="oracle", fnr=0.0, driving_score=1.0, collided=seed == 2,
+                               route_completion=0.9, mean_speed_m_s=8.0))  # fmt: skip
         records.append(_record(seed=seed, noise="clear", severity=0.0, fnr=0.05, driving_score=1.0))
     failed = _record(seed=3, fnr=math.nan, driving_score=math.nan, steps=0, error="RuntimeError: boom")
     for r in [*records, failed]:
@@ -121,6 +123,8 @@ def test_build_report_writes_every_file_with_the_summary_values(sweep):
     # and the paired all - none driving score: pairs 0.9 - {0.9, 0.8, 0.7}
     assert "| rain | 0.7 | 20.0 / 2.0 | 10.0 / 1.0 |" in md
     assert "| 4.00 | 0.100 [0.000, 0.200] (3 pairs) |" in md
+    # why a score moved: route completion %, mean speed and slide steps (none / all / oracle)
+    assert "| 10 / 50 / 90 | 2.0 / 5.0 / 8.0 | 1.0 / 2.0 / 0.0 |" in md
     # the paired section: all filters and the oracle against none
     section = md.split("## Filters vs none, paired")[1].split("## Per cell")[0]
     assert "| rain | 0.7 | all filters | 3 | 0.100 [0.000, 0.200] | -10.00 [-20.00, 0.00] |" in section
