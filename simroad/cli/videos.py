@@ -52,10 +52,27 @@ def add_videos(sub: Any) -> None:
         default=d["filters"],
         help=f"the filters in front of the detector: none, all, or names joined by + (default: {d['filters']})",
     )
+    p.add_argument(
+        "--compare",
+        type=_compare,
+        default="none",
+        help="filters of a second view left of the driving one, on the same frames (it does not drive): "
+        "none, all, names joined by +, or off for one view (default: none, i.e. without and with filters)",
+    )
     add_detector_flags(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_camera_profile(p)
     p.set_defaults(func=cmd_videos)
+
+
+def _compare(value: str) -> str:
+    """``--compare``: a filter set, or ``off``."""
+    if value == "off":
+        return value
+    try:
+        return T.filter_set()(value)
+    except argparse.ArgumentTypeError as exc:
+        raise argparse.ArgumentTypeError(f"{exc} Or 'off' for one view.") from None
 
 
 def cmd_videos(args: argparse.Namespace) -> int:
@@ -71,6 +88,7 @@ def cmd_videos(args: argparse.Namespace) -> int:
         detector_options=parse_detector_options(args.detector_option),
         progress=not args.quiet,
         camera_profile=args.camera_profile,
+        compare=None if args.compare == "off" else args.compare,
     )
     print("videos: " + ", ".join(str(p) for p in paths))
     return 0

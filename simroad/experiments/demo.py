@@ -41,9 +41,11 @@ def write_videos(
     detector_options: Mapping[str, Any] | None = None,
     progress: bool = True,
     camera_profile: CameraProfile | str | os.PathLike | None = None,
+    compare: str | None = "none",
 ) -> list[Path]:
     """One captioned GIF per noise of the detector driver (by default the paper's with
-    all filters).
+    all filters), beside it the same detector with the ``compare`` filters on the same
+    frames (by default none: without and with filters side by side).
 
     Parameters
     ----------
@@ -68,6 +70,9 @@ def write_videos(
     camera_profile : CameraProfile, dict or path, optional
         The camera of the videos (RoadCam's ``camera_profile``, e.g. a TOML file
         from ``simroad calibrate``); None is simroad's default profile.
+    compare : str or None, optional
+        The filter set of the left view (it does not drive); None, or the same set as
+        ``filters``, gives one view.
 
     Returns
     -------
@@ -84,10 +89,12 @@ def write_videos(
                     detector_options=dict(detector_options or {}))
         for noise in noises
     ]  # fmt: skip
+    if compare is not None and parse_filters(compare) == parse_filters(filters):
+        compare = None  # the same filters twice: one view
     directory = ensure_writable_dir("out", out)
     paths = []
     for noise, spec in tqdm(list(zip(noises, specs)), desc="videos", unit="video", disable=not progress):
         path = directory / f"{noise}.gif"
-        run_episode(spec, video=str(path))
+        run_episode(spec, video=str(path), video_compare=compare)
         paths.append(path)
     return paths

@@ -62,7 +62,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -195,6 +195,7 @@ def run_episode(
     driver: Callable | None = None,
     detector=None,
     video: str | None = None,
+    video_compare: str | Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """Drive one episode and return its record (keys :data:`RECORD_KEYS`).
 
@@ -210,20 +211,38 @@ def run_episode(
         ``spec.detector_options`` and ``spec.filters`` (once per process).
     video : path, optional
         Write an mp4 or GIF of the episode (see :mod:`simroad.experiments.video`).
+    video_compare : str or sequence of str, optional
+        A filter set (``none``, ``all``, names): the video shows, left of the driving
+        detector's view, what ``spec.detector`` with these filters finds on the same
+        frames. It does not drive and is not scored. Needs ``video`` and the detector
+        driver.
     """
     if not isinstance(spec, EpisodeSpec):
         raise InvalidParameterError(f"spec: expected an EpisodeSpec(...), got {type(spec).__name__}.")
     if video is not None:
         check_output_file("video", video, suffixes=(".mp4", ".gif"))
+    if video_compare is not None:
+        if video is None or driver is not None or spec.driver != "detector":
+            raise InvalidParameterError(
+                "video_compare: it shows a second filter set of the driving detector in the video; "
+                "give video= and use the detector driver, or leave video_compare out."
+            )
+        video_compare = parse_filters(video_compare)
     t_start = time.perf_counter()
     env = episode_env(spec)
     kind = driver if driver is not None else spec.driver
     if kind == "detector" and detector is None:
         detector = load_detector(spec.detector, spec.detector_options, filters=spec.filters)
     pilot = make_driver(kind, env, filters=spec.filters, detector=detector)
+    beside = None  # the same detector with other filters, seen in the video only
+    if video_compare is not None:
+        other = load_detector(spec.detector, spec.detector_options, filters=video_compare)
+        beside = make_driver("detector", env, detector=other)
     obs, info = env.reset(seed=spec.seed)
     start_speed = float(env.vehicle.speed)
     pilot.reset()
+    if beside is not None:
+        beside.reset()
     route_m = spec.route_m if spec.route_m is not None else default_route_m(env, spec.steps)
     safety = SafetyScore(dt=env.dt, route_length_m=route_m)
     masks, whole = MaskScore(), MaskScore()
@@ -231,6 +250,8 @@ def run_episode(
     recorder = None
     if video is not None:
         recorder = EpisodeVideo(video, env, caption=video_caption(spec, driver is not None))
+        if video_compare is not None:
+            recorder.labels = (f"filters {format_filters(video_compare)}", f"filters {format_filters(spec.filters)}")
     detect_ms, step_ms = [], []
     steps = 0
     for _ in range(spec.steps):
@@ -242,7 +263,9 @@ def run_episode(
             masks.update(pred, info["road_mask"], valid=valid)
             whole.update(pred, info["road_mask"])
         if recorder is not None:
-            recorder.add(obs, info, pred)
+            if beside is not None:
+                beside(obs, info)
+            recorder.add(obs, info, pred, beside=None if beside is None else beside.last_mask)
         obs, _, terminated, truncated, info = env.step(action)
         step_ms.append((time.perf_counter() - t0) * 1e3)
         detect_ms.append((t1 - t0) * 1e3)

@@ -2,7 +2,8 @@
 
 Each frame is the (noisy) camera view with the predicted road mask tinted green,
 the ground-truth road outline in yellow, and a bird's-eye inset (top right) of the
-world with the ego's trajectory so far. ``.mp4`` is written with imageio's ffmpeg
+world with the ego's trajectory so far; optionally, on its left, the same frame with a
+second mask (the detector with other filters: without/with filters side by side). ``.mp4`` is written with imageio's ffmpeg
 plugin, ``.gif`` with Pillow.
 """
 
@@ -64,11 +65,15 @@ class EpisodeVideo:
         self._caption_at: tuple[float, int, int, int] | None = None
         self.frames: list[np.ndarray] = []
         self.trail: list[np.ndarray] = []
+        #: Labels of the two views when frames come with a mask ``beside`` (left, right).
+        self.labels: tuple[str, str] = ("", "")
 
-    def add(self, obs: np.ndarray, info: dict, pred: np.ndarray | None) -> None:
+    def add(self, obs: np.ndarray, info: dict, pred: np.ndarray | None, *, beside: np.ndarray | None = None) -> None:
         """Append one annotated frame: ``obs`` (H, W, 3) uint8 with ``pred`` (H, W) bool
         tinted, the outline of ``info["road_mask"]``, and the bird's-eye inset with the
-        trajectory up to ``info["pose"]`` (x m, y m, heading rad)."""
+        trajectory up to ``info["pose"]`` (x m, y m, heading rad). With ``beside`` (a
+        second mask of the same frame), the frame is two views side by side: ``beside``
+        on the left, ``pred`` on the right, each labelled with :attr:`labels`."""
         frame = overlay_frame(obs, info["road_mask"], pred)
         self.trail.append(np.asarray(info["pose"][:2], dtype=float))
         h = frame.shape[0]
@@ -82,6 +87,12 @@ class EpisodeVideo:
             if self._caption_at is None:  # laid out once: every frame of a video has one size
                 self._caption_at = _caption_layout(frame.shape[0], self.caption, width=frame.shape[1] - size[0] - 4)
             _draw_caption(frame, self.caption, *self._caption_at)
+        if beside is not None:
+            left = overlay_frame(obs, info["road_mask"], beside)
+            for view, label in zip((left, frame), self.labels, strict=True):
+                if label:
+                    _draw_label(view, label)
+            frame = np.concatenate([left, np.full((h, 2, 3), 255, np.uint8), frame], axis=1)
         self.frames.append(frame)
 
     def _draw_trail(self, bev: np.ndarray, pose: np.ndarray, mpp: float, behind_m: float) -> None:
@@ -128,3 +139,12 @@ def _draw_caption(frame: np.ndarray, text: str, scale: float, w: int, h: int, ba
     """Write ``text`` on a dark band at the top left of ``frame`` (in place)."""
     frame[: h + base + 4, : min(w + 6, frame.shape[1])] //= 3
     cv2.putText(frame, text, (3, h + 2), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
+
+
+def _draw_label(frame: np.ndarray, text: str) -> None:
+    """Write ``text`` on a dark band at the bottom left of ``frame`` (in place)."""
+    scale, w, h, base = _caption_layout(frame.shape[0], text, width=frame.shape[1] - 4)
+    top = frame.shape[0] - h - base - 4
+    frame[top:, : min(w + 6, frame.shape[1])] //= 3
+    cv2.putText(frame, text, (3, frame.shape[0] - base - 2), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1,
+                cv2.LINE_AA)  # fmt: skip

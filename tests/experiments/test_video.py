@@ -96,3 +96,41 @@ def test_bad_video_path_and_empty_video_are_clear_errors(steps, tmp_path):
         EpisodeVideo(tmp_path / "ep.avi", env)
     with pytest.raises(SimroadError, match="no frames"):
         EpisodeVideo(tmp_path / "ep.gif", env).close()
+
+
+def test_a_mask_beside_makes_two_labelled_views_of_the_same_frame(steps):
+    """Without/with filters: the left view tints ``beside``, the right one ``pred`` and keeps the inset."""
+    env, ((obs, info), *_) = steps
+    gt = info["road_mask"]
+    left_half = np.zeros_like(gt)
+    left_half[:, : W // 2] = True
+    video = EpisodeVideo("unused.gif", env)
+    video.labels = ("filters none", "filters all")
+    video.add(obs, info, ~left_half, beside=left_half)
+    frame = video.frames[0]
+    assert frame.shape == (H, 2 * W + 2, 3) and (frame[:, W : W + 2] == 255).all()
+    left, right = frame[:, :W], frame[:, W + 2 :]
+    rows = slice(H // 2, H - 15)  # below the inset, above the labels
+    greener = lambda view, cols: (view[rows, cols, 1].astype(int) - obs[rows, cols, 1]).mean()  # noqa: E731
+    as_seen = lambda view, cols: (view[rows, cols] == obs[rows, cols]).all(axis=-1).mean()  # noqa: E731
+    west, east = slice(5, W // 2 - 5), slice(W // 2 + 5, W - 5)
+    assert greener(left, west) > 20 and as_seen(left, east) > 0.9  # untouched but the yellow outline
+    assert greener(right, east) > 20 and as_seen(right, west) > 0.9
+    assert (left[-3:, :20] < obs[-3:, :20]).any()  # the label's dark band
+    single = EpisodeVideo("unused.gif", env)
+    single.add(obs, info, ~left_half)
+    np.testing.assert_array_equal(single.frames[0][:, :, :][rows], right[rows])  # the same right view
+
+
+def test_run_episode_shows_the_detector_without_filters_beside(tmp_path):
+    from simroad.experiments.episode import EpisodeSpec, run_episode
+
+    spec = EpisodeSpec(scenario="racetrack", noise="shadow", severity=0.7, filters="all", seed=1, steps=3,
+                       env_options={"width": W, "height": H})  # fmt: skip
+    alone = run_episode(spec)
+    shown = run_episode(spec, video=str(tmp_path / "ab.gif"), video_compare="none")
+    timing = ("detect_ms_median", "step_ms_median", "wall_s")
+    assert {k: v for k, v in shown.items() if k not in timing} == {k: v for k, v in alone.items() if k not in timing}
+    assert _decode(tmp_path / "ab.gif").shape == (3, H, 2 * W + 2, 3)
+    with pytest.raises(SimroadError, match="video_compare"):
+        run_episode(spec, video_compare="none")  # no video to show it in
