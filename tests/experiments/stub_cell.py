@@ -62,3 +62,16 @@ def contender(out: str, grid, start, conn) -> None:
         result = ("crash", traceback.format_exc())
     conn.send(result)
     os._exit(0)
+
+
+def fake_record(**kw):
+    """A valid results row of a paper-detector episode (rain 0.7, racetrack, seed 0, 5
+    steps, every metric 0), with ``kw`` changed."""
+    r = dict.fromkeys(RECORD_KEYS, 0.0)
+    r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
+    r.update(scenario="racetrack", noise="rain", severity=0.7, filters="none", driver="detector",
+             seed=0, steps=5, step_budget=5)  # fmt: skip
+    r.update(detector="paper", detector_version="", detector_spec="paper")
+    r.update(collided=False, offroad_steps=0, lane_departures=0, min_ttc_s=None, error=None)
+    r.update(kw)
+    return r

@@ -5,35 +5,19 @@ from __future__ import annotations
 import csv
 import json
 import math
+import sys
+from pathlib import Path
 
 import cv2
 import pytest
 
 from simroad import SimroadError
-from simroad.experiments.episode import RECORD_KEYS
 from simroad.experiments.report import METRICS, SKY_COLUMN, build_report, summarise
 from simroad.experiments.results import ResultStore
 from simroad.experiments.stats import mean_interval, proportion_interval
 
-
-def _record(**kw):
-    r = dict.fromkeys(RECORD_KEYS, 0.0)
-    r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
-    r.update(
-        scenario="racetrack",
-        noise="rain",
-        severity=0.7,
-        filters="none",
-        driver="detector",
-        seed=0,
-        steps=5,
-        step_budget=5,
-    )
-    r.update(detector="paper", detector_version="", detector_spec="paper")
-    r.update(collided=False, min_ttc_s=None, error=None)
-    r.update(kw)
-    return r
-
+sys.path.insert(0, str(Path(__file__).parent))
+from stub_cell import fake_record as _record
 
 FNR = {0: 0.1, 1: 0.2, 2: 0.3}
 

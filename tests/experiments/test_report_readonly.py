@@ -21,26 +21,8 @@ from simroad.experiments.results import ROW_TYPES, ResultStore, check_row, read_
 ROOT = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).parent
 sys.path.insert(0, str(HERE))
+from stub_cell import fake_record as _record  # noqa: E402
 from stub_cell import stub_cell  # noqa: E402
-
-
-def _record(**kw):
-    r = dict.fromkeys(RECORD_KEYS, 0.0)
-    r["camera_profile"] = r["detector_options"] = r["env_options"] = {}
-    r.update(
-        scenario="racetrack",
-        noise="rain",
-        severity=0.7,
-        filters="none",
-        driver="detector",
-        seed=0,
-        steps=5,
-        step_budget=5,
-    )
-    r.update(detector="paper", detector_version="", detector_spec="paper")
-    r.update(collided=False, offroad_steps=0, lane_departures=0, min_ttc_s=None, error=None)
-    r.update(kw)
-    return r
 
 
 def _line(**kw) -> str:
