@@ -90,7 +90,7 @@ def test_videos_subcommand_writes_one_gif_per_noise(tmp_path, capsys):
     assert main(["videos", "--out", str(out), "--steps", "2", "--quiet"]) == 0
     for noise in DEMO_NOISES:
         frames = imageio.mimread(out / f"{noise}.gif")
-        assert len(frames) == 2 and frames[0].shape[:2] == (180, 320)
+        assert len(frames) == 2 and frames[0].shape[:2] == (180, 2 * 320 + 2)  # without | with filters
     assert capsys.readouterr().out.startswith("videos: ")
 
 

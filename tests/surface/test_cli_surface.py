@@ -135,6 +135,7 @@ EXTRA: dict[tuple[str, str], list[tuple[str, str]]] = {
     ("evaluate-detector", "model"): [("text file", "{file}")],
     ("realism", "reference"): [("not a quantile table", "{file}")],
     ("realism", "photos"): [("no photo with a mask", "{dir}")],
+    ("videos", "compare"): [("unknown filter", "bogus"), ("a list", "none,all")],
     **{
         (cmd, "road_colour"): [("not a colour", "red"), ("out of range", "300,0,0"), ("two channels", "255,0")]
         for cmd in ("evaluate-detector", "realism", "calibrate")
