@@ -89,8 +89,12 @@ def write_videos(
                     detector_options=dict(detector_options or {}))
         for noise in noises
     ]  # fmt: skip
-    if compare is not None and parse_filters(compare) == parse_filters(filters):
-        compare = None  # the same filters twice: one view
+    if compare is not None:
+        try:
+            same = parse_filters(compare) == parse_filters(filters)
+        except InvalidParameterError as exc:
+            raise InvalidParameterError(f"compare: {str(exc).removeprefix('filters: ')}") from None
+        compare = None if same else compare  # the same filters twice: one view
     directory = ensure_writable_dir("out", out)
     paths = []
     for noise, spec in tqdm(list(zip(noises, specs)), desc="videos", unit="video", disable=not progress):

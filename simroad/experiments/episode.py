@@ -227,7 +227,10 @@ def run_episode(
                 "video_compare: it shows a second filter set of the driving detector in the video; "
                 "give video= and use the detector driver, or leave video_compare out."
             )
-        video_compare = parse_filters(video_compare)
+        try:
+            video_compare = parse_filters(video_compare)
+        except InvalidParameterError as exc:
+            raise InvalidParameterError(f"video_compare: {str(exc).removeprefix('filters: ')}") from None
     t_start = time.perf_counter()
     env = episode_env(spec)
     kind = driver if driver is not None else spec.driver

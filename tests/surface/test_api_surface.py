@@ -346,6 +346,19 @@ FUNCTION_CASES: list[tuple[str, str, object, str]] = [
         lambda e, p: experiments.run_episode(EpisodeSpec(steps=1), video=p["ok"] + "/v.avi"),
         "video",
     ),
+    (
+        "run_episode",
+        "unknown filter to compare",
+        lambda e, p: experiments.run_episode(EpisodeSpec(steps=1), video=p["ok"] + "/v.gif", video_compare="fog"),
+        "video_compare",
+    ),
+    (
+        "run_episode",
+        "compare without a video",
+        lambda e, p: experiments.run_episode(EpisodeSpec(steps=1), video_compare="none"),
+        "video_compare",
+    ),
+    ("build_report", "a second sweep that is not one", lambda e, p: experiments.build_report(p["dir"], 5), "dir"),
 ]
 # fmt: on
 
