@@ -3,17 +3,20 @@
 A :class:`~simroad.camera.world.WorldRaster` (its lane outlines and ground textures)
 and its :class:`~simroad.camera.scenery.Scenery` are pure functions of the road
 network's geometry, the world generator's state, the texel size, the palette, the
-extra markings and the scenery's options; building them is most of a reset.
-gymnasium's ``check_env`` resets twice with one seed, a paired sweep runs several
-filter sets on one world, the tests reset the same worlds again and again.
+extra markings and the scenery's options; building them, and rendering the first
+frame's tiles and scenery cells, is most of a reset. gymnasium's ``check_env`` resets
+twice with one seed, a paired sweep runs several filter sets on one world, the tests
+reset the same worlds again and again.
 
-The cache keeps the last :data:`WORLDS` worlds as pristine masters and hands out a
-shallow copy of one: the copy shares the master's textures, lane outlines and tile
-caches (every tile is a pure function of its index, whichever episode rendered it
-first) but has windows of its own (a window's origin depends on the poses it was
-asked for, and enters the camera's warp), and no scenery until one is attached. A hit
-sets the world generator to the state the build left it in, so every later draw is
-the one a fresh build would give.
+The cache keeps the last :data:`WORLDS` worlds as masters (the first frame's tiles of
+the last :data:`TILED` only, to bound the memory) and hands out shallow copies:
+a copy shares the master's textures, lane outlines and road index, and starts its own
+tile and cell caches from the ones the master's first episode filled for its first
+frame (:func:`remember`; every tile and cell is a pure function of its index), so
+nothing an episode renders later is kept, and two live episodes share no mutable
+state. A copy has windows of its own (a window's origin depends on the poses it was
+asked for, and enters the camera's warp). A hit sets the world generator to the state
+the build left it in, so every later draw is the one a fresh build would give.
 
 A network whose lanes hold anything but numbers, arrays, strings and containers of
 them (a lane type simroad does not know) is built afresh each time.
@@ -32,13 +35,16 @@ from typing import Any
 import numpy as np
 
 from simroad.camera import WorldRaster
+from simroad.camera.mesh import Mesh
 from simroad.camera.palette import Palette
 from simroad.camera.scenery import Scenery
 
-__all__ = ["WORLDS", "clear", "scenery", "world"]
+__all__ = ["TILED", "WORLDS", "clear", "remember", "scenery", "world"]
 
-#: Worlds kept (each holds its textures and up to ``max_tiles`` rendered tiles, ~0.1-0.2 GB).
-WORLDS = 2
+#: Worlds kept: each holds its textures and the first frame's scenery cells (~5 MB) ...
+WORLDS = 8
+#: ... and the most recent of them the first frame's tiles too (~25 MB at the default camera).
+TILED = 2
 _SCENERIES = 2  # sceneries kept per world
 _DEPTH = 4  # nesting of a lane's attributes looked into
 
@@ -49,8 +55,9 @@ class _Uncacheable(Exception):
 
 @dataclass
 class _Entry:
-    world: WorldRaster  # the master, never handed out
+    world: WorldRaster  # the master, never handed out; its tile caches: the first frame's
     rng_state: Mapping[str, Any]  # the world generator's state after the build
+    remembered: bool = False  # the first frame's tiles are in the master
     sceneries: OrderedDict[tuple[Any, ...], Scenery] = field(default_factory=OrderedDict)
 
 
@@ -92,13 +99,37 @@ def _world_key(network, rng: np.random.Generator, texel_m: float, palette: Palet
     return (lanes, state, float(texel_m).hex(), _canon(palette), _canon(list(extra)))
 
 
+def _trim() -> None:
+    """Keep :data:`WORLDS` worlds, the first frame's tiles of the last :data:`TILED` (under the lock)."""
+    while len(_cache) > WORLDS:
+        _cache.popitem(last=False)
+    for old in list(_cache.values())[: max(len(_cache) - TILED, 0)]:
+        old.world._tiles, old.world._tile_levels, old.remembered = OrderedDict(), OrderedDict(), False
+
+
 def _view(master: WorldRaster) -> WorldRaster:
-    """A copy of ``master`` sharing its immutable parts and tile caches, with windows of
-    its own and no scenery."""
+    """A copy of ``master`` sharing its immutable parts, with tile caches started from
+    the master's, windows of its own and no scenery."""
     out = copy.copy(master)
+    out._tiles = OrderedDict(master._tiles)
+    out._tile_levels = OrderedDict(master._tile_levels)
     out._windows = {}
     out.scenery = None
     return out
+
+
+def _scenery_view(master: Scenery) -> Scenery:
+    """A copy of ``master`` sharing its road index, with cell caches started from the master's."""
+    out = copy.copy(master)
+    out._cells = OrderedDict(master._cells)
+    out._cands = OrderedDict(master._cands)
+    out._last = (None, Mesh.empty())
+    return out
+
+
+def _entry_of(world: WorldRaster) -> _Entry | None:
+    with _lock:
+        return next((e for e in _cache.values() if e.world.shapes is world.shapes), None)
 
 
 def world(
@@ -119,13 +150,13 @@ def world(
         entry = _cache.get(key)
         if entry is not None:
             _cache.move_to_end(key)
+            _trim()
     if entry is None:
         master = WorldRaster(network, rng, texel_m=texel_m, palette=palette, extra_markings=extra_markings)
         entry = _Entry(master, copy.deepcopy(rng.bit_generator.state))
         with _lock:
             _cache[key] = entry
-            while len(_cache) > WORLDS:
-                _cache.popitem(last=False)
+            _trim()
     else:
         rng.bit_generator.state = dict(copy.deepcopy(entry.rng_state))
     return _view(entry.world)
@@ -135,8 +166,7 @@ def scenery(world: WorldRaster, seed: int, **options: Any) -> Scenery:
     """``Scenery(world.shapes, seed, **options)``, reused when this cached world built
     it before (the objects of a cell are a pure function of these): a shallow copy
     sharing the master's cell caches, which the episode's references alone keep alive."""
-    with _lock:
-        entry = next((e for e in _cache.values() if e.world.shapes is world.shapes), None)
+    entry = _entry_of(world)
     if entry is None:
         return Scenery(world.shapes, seed, **options)
     try:
@@ -147,13 +177,33 @@ def scenery(world: WorldRaster, seed: int, **options: Any) -> Scenery:
         found = entry.sceneries.get(key)
         if found is not None:
             entry.sceneries.move_to_end(key)
-            return copy.copy(found)
+            return _scenery_view(found)
     built = Scenery(world.shapes, seed, **options)
     with _lock:
         entry.sceneries[key] = built
         while len(entry.sceneries) > _SCENERIES:
             entry.sceneries.popitem(last=False)
-    return copy.copy(built)
+    return _scenery_view(built)
+
+
+def remember(world: WorldRaster) -> None:
+    """Keep in ``world``'s masters (when cached) the tiles and scenery cells its caches
+    hold now, once: called after a reset's first frame, they are what the next reset of
+    the same world renders first."""
+    entry = _entry_of(world)
+    if entry is None:
+        return
+    with _lock:
+        if not entry.remembered:
+            entry.world._tiles = OrderedDict(world._tiles)
+            entry.world._tile_levels = OrderedDict(world._tile_levels)
+            entry.remembered = True
+        scenery = world.scenery
+        if isinstance(scenery, Scenery):
+            master = next((m for m in entry.sceneries.values() if m.road is scenery.road), None)
+            if master is not None and not master._cands:  # a master renders nothing itself
+                master._cells = OrderedDict(scenery._cells)
+                master._cands = OrderedDict(scenery._cands)
 
 
 def clear() -> None:

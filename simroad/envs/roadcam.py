@@ -214,7 +214,9 @@ class RoadCamEnv(gym.Env):
             )
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0
-        return self._observe(crashed=False)
+        first = self._observe(crashed=False)
+        _world_cache.remember(self.world)  # the first frame's tiles and cells, for the next reset of this world
+        return first
 
     def step(self, action):
         a = _action_array(action, self.action_space.shape)

@@ -51,7 +51,7 @@ def test_a_reused_world_gives_the_frames_of_a_fresh_build(scenario, noise):
     assert _episode(env, 6) == other  # built afresh after another one was cached
 
 
-def test_two_live_envs_on_one_world_keep_their_own_windows():
+def test_two_live_envs_on_one_world_keep_their_own_windows(monkeypatch):
     """Two environments on the same cached world: each frame is that of a fresh build.
     A window is reused while the view fits in it, and its origin enters the warp (a
     window assembled 40 m back, which still holds the view, changes pixels by 1): one
