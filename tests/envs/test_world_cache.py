@@ -1,13 +1,17 @@
 """A reset that reuses this process's last world gives the frames of a fresh build, bit
-for bit (simroad.envs._world_cache)."""
+for bit (simroad.envs._world_cache, and the renderer's sky images kept by
+simroad.camera._sheen)."""
 
 from __future__ import annotations
 
 import hashlib
+from collections import OrderedDict
 
 import numpy as np
 import pytest
 
+from simroad.camera import _sheen
+from simroad.camera.sky import sky_image
 from simroad.envs import RoadCamEnv, _world_cache
 from simroad.experiments.rollout import autopilot_env_action
 
@@ -15,6 +19,13 @@ from simroad.experiments.rollout import autopilot_env_action
 # scenery) or draws from the streams after the world's.
 CASES = [("racetrack", "rain+shadow"), ("highway", "fog+glare"), ("winding", "shadow"), ("town", "snow+shadow")]
 STEPS = 3
+
+
+@pytest.fixture(autouse=True)
+def _nothing_cached(monkeypatch):
+    """Each test starts with no world and no sky image cached."""
+    _world_cache.clear()
+    monkeypatch.setattr(_sheen, "_images", OrderedDict())
 
 
 def _digest(obs: np.ndarray, info: dict) -> str:
@@ -41,7 +52,6 @@ def _episode(env: RoadCamEnv, seed: int) -> list[str]:
 @pytest.mark.parametrize(("scenario", "noise"), CASES)
 def test_a_reused_world_gives_the_frames_of_a_fresh_build(scenario, noise):
     env = RoadCamEnv(scenario=scenario, noise=noise, width=192, height=108)
-    _world_cache.clear()
     fresh = _episode(env, 5)
     assert _episode(env, 5) == fresh  # the world and scenery from the cache
     other = _episode(env, 6)  # another world in between
@@ -55,8 +65,9 @@ def test_two_live_envs_on_one_world_keep_their_own_windows(monkeypatch):
     """Two environments on the same cached world: each frame is that of a fresh build.
     A window is reused while the view fits in it, and its origin enters the warp (a
     window assembled 40 m back, which still holds the view, changes pixels by 1): one
-    env's windows must not serve the other's frames."""
-    _world_cache.clear()
+    env's windows must not serve the other's frames. The cache keeps no tiles here:
+    every tile is rendered afresh."""
+    monkeypatch.setattr(_world_cache, "TILED", 0)
     alone = _episode(RoadCamEnv(scenario="highway", noise="shadow", width=192, height=108), 3)
     a = RoadCamEnv(scenario="highway", noise="shadow", width=192, height=108)
     a.reset(seed=3)
@@ -70,7 +81,6 @@ def test_two_live_envs_on_one_world_keep_their_own_windows(monkeypatch):
 def test_a_world_differs_with_what_it_is_a_function_of():
     """The key tells apart worlds that differ only in the palette or texel size: no hit
     gives a world built from other inputs."""
-    _world_cache.clear()
     base = RoadCamEnv(scenario="racetrack", width=96, height=54)
     base.reset(seed=2)
     grass = RoadCamEnv(scenario="racetrack", width=96, height=54, roadside="gravel")
@@ -79,3 +89,14 @@ def test_a_world_differs_with_what_it_is_a_function_of():
     fine = RoadCamEnv(scenario="racetrack", width=96, height=54, texel_m=0.05)
     fine.reset(seed=2)
     assert fine.world.texel_m == 0.05 and fine.world.shapes is not base.world.shapes
+
+
+def test_the_renderers_sky_images_are_the_functions_own_and_read_only():
+    env = RoadCamEnv(scenario="town", width=96, height=54)
+    env.reset(seed=4)
+    sky = _sheen.renderer_sky(env.camera, env.renderer.sky)
+    np.testing.assert_array_equal(sky, sky_image(env.camera, env.renderer.sky, heading=0.0))
+    sheen = _sheen.renderer_sheen(env.camera, env.renderer.sky, 20)
+    np.testing.assert_array_equal(sheen, _sheen.sheen_map(env.camera, env.renderer.sky, 20))
+    assert not sky.flags.writeable and not sheen.flags.writeable
+    assert _sheen.renderer_sky(env.camera, env.renderer.sky) is sky  # computed once
