@@ -55,7 +55,7 @@ class _Uncacheable(Exception):
 
 @dataclass
 class _Entry:
-    world: WorldRaster  # the master, never handed out; its tile caches: the first frame's
+    world: WorldRaster  # the master, never handed out; its tile caches hold the first frame's
     rng_state: Mapping[str, Any]  # the world generator's state after the build
     remembered: bool = False  # the first frame's tiles are in the master
     sceneries: OrderedDict[tuple[Any, ...], Scenery] = field(default_factory=OrderedDict)
@@ -165,7 +165,8 @@ def world(
 def scenery(world: WorldRaster, seed: int, **options: Any) -> Scenery:
     """``Scenery(world.shapes, seed, **options)``, reused when this cached world built
     it before (the objects of a cell are a pure function of these): a shallow copy
-    sharing the master's cell caches, which the episode's references alone keep alive."""
+    sharing the master's road index, with cell caches of its own started from the
+    master's, which the episode's references alone keep alive."""
     entry = _entry_of(world)
     if entry is None:
         return Scenery(world.shapes, seed, **options)
