@@ -27,7 +27,7 @@ from simroad.camera.codes import SKY
 from simroad.camera.geometry import PinholeCamera
 from simroad.camera.mesh import Mesh
 from simroad.camera.profile import CameraProfile
-from simroad.camera.sky import draw_sky, sky_image
+from simroad.camera.sky import draw_sky
 from simroad.camera.vehicles import VehicleBox, vehicles_mesh
 from simroad.camera.window import Window
 from simroad.camera.world import WorldRaster
@@ -123,7 +123,7 @@ class CameraRenderer:
         self.world = world
         c = camera.config
         self.sky = draw_sky(rng, daylight=profile, sky_view=sky_view)
-        sky = sky_image(camera, self.sky, heading=0.0)
+        sky = _sheen.renderer_sky(camera, self.sky)
         depth = camera.depth
         # Aerial perspective over the last 40 % of the range hides the cut-off.
         fade_start = 0.6 * c.max_range_m
@@ -168,7 +168,7 @@ class CameraRenderer:
         self._band = np.empty((c.height - self._r0, c.width, 4), np.uint8)  # scratch: a warped band of colour
         # The sky the road reflects, times the world's gloss (nothing to add without gloss).
         gloss = self.world.palette.sheen
-        self._sheen = np.float32(gloss) * _sheen.sheen_map(camera, self.sky, self._r0) if gloss > 0.0 else None
+        self._sheen = np.float32(gloss) * _sheen.renderer_sheen(camera, self.sky, self._r0) if gloss > 0.0 else None
 
     def footprint_world(self) -> np.ndarray:
         """World (x, y) of the visible-ground footprint polygon for the current pose."""

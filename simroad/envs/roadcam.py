@@ -12,10 +12,10 @@ from gymnasium import spaces
 
 from simroad.camera import CameraRenderer, Frame, PinholeCamera, Sensor, VehicleBox, WorldRaster, render_bev
 from simroad.camera.palette import draw_palette
-from simroad.camera.scenery import Scenery
 from simroad.camera.sky import SKY_VIEW
 from simroad.camera.vehicles import draw_paint, paint_rgb
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
+from simroad.envs import _world_cache
 from simroad.envs.config import RoadCamConfig
 from simroad.envs.friction import RoadGrip, road_grip
 from simroad.envs.scenarios import POLICY_HZ, get_scenario
@@ -165,7 +165,8 @@ class RoadCamEnv(gym.Env):
         palette = draw_palette(
             world_rng, roadside=self.config.roadside, profile=self.scenario.profile, camera_profile=cp
         )
-        self.world = WorldRaster(
+        # Built once per process for a given road, seed and palette (:mod:`._world_cache`).
+        self.world = _world_cache.world(
             self._hw.road.network,
             world_rng,
             texel_m=self.config.camera.texel_m,
@@ -178,8 +179,8 @@ class RoadCamEnv(gym.Env):
         # The world's last draw: the scenery seed (only the scenery shifts with it).
         scenery_seed = int(world_rng.integers(2**63 - 1))
         if self.config.scenery > 0:
-            self.world.scenery = Scenery(
-                self.world.shapes,
+            self.world.scenery = _world_cache.scenery(
+                self.world,
                 scenery_seed,
                 profile=self.scenario.profile,
                 density=self.config.scenery,
@@ -213,7 +214,9 @@ class RoadCamEnv(gym.Env):
             )
         self._prev_heading = float(self.vehicle.heading)
         self._time = 0.0
-        return self._observe(crashed=False)
+        first = self._observe(crashed=False)
+        _world_cache.remember(self.world)  # the first frame's tiles and cells, for the next reset of this world
+        return first
 
     def step(self, action):
         a = _action_array(action, self.action_space.shape)
