@@ -252,9 +252,10 @@ def run_episode(
     valid = env.camera.ground_valid
     recorder = None
     if video is not None:
-        recorder = EpisodeVideo(video, env, caption=video_caption(spec, driver is not None))
-        if video_compare is not None:
-            recorder.labels = (f"filters {format_filters(video_compare)}", f"filters {format_filters(spec.filters)}")
+        labels = ("", "") if video_compare is None else (
+            f"filters {format_filters(video_compare)}", f"filters {format_filters(spec.filters)}"
+        )  # fmt: skip
+        recorder = EpisodeVideo(video, env, caption=video_caption(spec, driver is not None), labels=labels)
     detect_ms, step_ms = [], []
     steps = 0
     for _ in range(spec.steps):

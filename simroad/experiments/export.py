@@ -40,8 +40,7 @@ def _write_png(path: Path, rgb_or_grey: np.ndarray) -> None:
 
 def _depth_centimetres(depth: np.ndarray) -> np.ndarray:
     """``depth`` (float metres, inf where nothing is in range) as uint16 centimetres, 0 for none."""
-    finite = np.isfinite(depth)
-    cm = np.where(finite, np.rint(np.where(finite, depth, 0.0) * 100.0), 0.0)
+    cm = np.rint(np.where(np.isfinite(depth), depth, 0.0) * 100.0)
     return np.clip(cm, 0, np.iinfo(np.uint16).max).astype(np.uint16)
 
 

@@ -51,7 +51,9 @@ def overlay_frame(obs: np.ndarray, gt: np.ndarray, pred: np.ndarray | None) -> n
 class EpisodeVideo:
     """Collect annotated frames of an episode and write them to ``path``."""
 
-    def __init__(self, path: str | os.PathLike, env, *, fps: int = 5, caption: str = "") -> None:
+    def __init__(
+        self, path: str | os.PathLike, env, *, fps: int = 5, caption: str = "", labels: tuple[str, str] = ("", "")
+    ) -> None:
         self.path = Path(path)
         if self.path.suffix.lower() not in (".mp4", ".gif"):
             raise InvalidParameterError(f"video: expected a path ending in .mp4 or .gif, got {str(self.path)!r}.")
@@ -66,7 +68,8 @@ class EpisodeVideo:
         self.frames: list[np.ndarray] = []
         self.trail: list[np.ndarray] = []
         #: Labels of the two views when frames come with a mask ``beside`` (left, right).
-        self.labels: tuple[str, str] = ("", "")
+        self.labels = (str(labels[0]), str(labels[1]))
+        self._labels_at: list[tuple[float, int, int, int]] = []
 
     def add(self, obs: np.ndarray, info: dict, pred: np.ndarray | None, *, beside: np.ndarray | None = None) -> None:
         """Append one annotated frame: ``obs`` (H, W, 3) uint8 with ``pred`` (H, W) bool
@@ -89,9 +92,11 @@ class EpisodeVideo:
             _draw_caption(frame, self.caption, *self._caption_at)
         if beside is not None:
             left = overlay_frame(obs, info["road_mask"], beside)
-            for view, label in zip((left, frame), self.labels, strict=True):
-                if label:
-                    _draw_label(view, label)
+            if not self._labels_at:  # laid out once, as the caption
+                self._labels_at = [_caption_layout(h, text, width=frame.shape[1] - 4) for text in self.labels]
+            for view, text, at in zip((left, frame), self.labels, self._labels_at, strict=True):
+                if text:
+                    _draw_label(view, text, *at)
             frame = np.concatenate([left, np.full((h, 2, 3), 255, np.uint8), frame], axis=1)
         self.frames.append(frame)
 
@@ -141,9 +146,8 @@ def _draw_caption(frame: np.ndarray, text: str, scale: float, w: int, h: int, ba
     cv2.putText(frame, text, (3, h + 2), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
 
 
-def _draw_label(frame: np.ndarray, text: str) -> None:
-    """Write ``text`` on a dark band at the bottom left of ``frame`` (in place)."""
-    scale, w, h, base = _caption_layout(frame.shape[0], text, width=frame.shape[1] - 4)
+def _draw_label(frame: np.ndarray, text: str, scale: float, w: int, h: int, base: int) -> None:
+    """Write ``text`` (laid out by :func:`_caption_layout`) on a dark band at the bottom left of ``frame`` (in place)."""
     top = frame.shape[0] - h - base - 4
     frame[top:, : min(w + 6, frame.shape[1])] //= 3
     cv2.putText(frame, text, (3, frame.shape[0] - base - 2), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1,

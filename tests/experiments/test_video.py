@@ -104,8 +104,7 @@ def test_a_mask_beside_makes_two_labelled_views_of_the_same_frame(steps):
     gt = info["road_mask"]
     left_half = np.zeros_like(gt)
     left_half[:, : W // 2] = True
-    video = EpisodeVideo("unused.gif", env)
-    video.labels = ("filters none", "filters all")
+    video = EpisodeVideo("unused.gif", env, labels=("filters none", "filters all"))
     video.add(obs, info, ~left_half, beside=left_half)
     frame = video.frames[0]
     assert frame.shape == (H, 2 * W + 2, 3) and (frame[:, W : W + 2] == 255).all()
