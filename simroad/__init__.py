@@ -20,7 +20,11 @@ from types import ModuleType
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
+from simroad.core.opencv import opencv_without_ipp
 from simroad.errors import SimroadError
+
+# The same frames on every CPU: OpenCV's IPP path rounds by the CPU's vector width.
+opencv_without_ipp()
 
 __version__ = "0.2.0.dev0"
 __all__ = ["ENV_ID", "SimroadError", "__version__"]

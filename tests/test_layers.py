@@ -20,11 +20,11 @@ PACKAGE = Path(__file__).resolve().parents[1] / "simroad"
 
 _BASE = {"errors", "core", "simroad"}
 #: Package -> the other packages it may import (``simroad`` is the root module: the
-#: version, ENV_ID and the error base class).
+#: version, ENV_ID, the error base class and OpenCV without IPP).
 ALLOWED: dict[str, set[str]] = {
     "errors": set(),
     "core": {"errors"},
-    "simroad": {"errors"},
+    "simroad": {"errors", "core"},
     "filters": _BASE,
     "metrics": _BASE,
     "detector": _BASE | {"filters"},

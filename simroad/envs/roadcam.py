@@ -14,6 +14,7 @@ from simroad.camera import CameraRenderer, Frame, PinholeCamera, Sensor, Vehicle
 from simroad.camera.palette import draw_palette
 from simroad.camera.sky import SKY_VIEW
 from simroad.camera.vehicles import draw_paint, paint_rgb
+from simroad.core.opencv import opencv_without_ipp
 from simroad.core.validation import check_choice, check_in_range, check_int_in_range
 from simroad.envs import _world_cache
 from simroad.envs.config import RoadCamConfig
@@ -155,6 +156,7 @@ class RoadCamEnv(gym.Env):
         if seed is not None:  # a plain int for gymnasium (which refuses numpy integers and 3.0)
             seed = check_int_in_range("seed", seed, 0, 2**63 - 1)
         super().reset(seed=seed)
+        opencv_without_ipp()  # OpenCV keeps the switch per thread: this one renders
         rng = self.np_random
         self._hw.reset(seed=int(rng.integers(2**31 - 1)))
         # Our roads are chains of short segments: let highway-env find the vehicle

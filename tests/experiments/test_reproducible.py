@@ -7,7 +7,9 @@ dynamics deliberately, regenerate the file with
 ``python tests/experiments/test_reproducible.py --update`` and say why in the commit.
 A change that depends on the machine (CPU features, thread counts, library builds)
 fails here too: the second test reruns everything with NumPy's AVX2/FMA kernels
-disabled, Numba compiling for a generic x86-64 and one thread everywhere.
+disabled, OpenCV's kernels for the baseline SSE3 only, Numba compiling for a generic
+x86-64 and one thread everywhere. (OpenCV's IPP path rounds by the CPU's vector width:
+simroad switches it off, :mod:`simroad.core.opencv`.)
 """
 
 from __future__ import annotations
@@ -27,7 +29,8 @@ PINNED = Path(__file__).parent / "data" / "reproducible.json"
 UNPINNED = ("detect_ms_median", "step_ms_median", "wall_s", "detector_version")
 #: A machine as unlike this one as a single process can make it.
 OTHER_MACHINE = {
-    "NPY_DISABLE_CPU_FEATURES": "X86_V3",  # no AVX2/FMA3 in NumPy's own kernels
+    "NPY_DISABLE_CPU_FEATURES": "X86_V3 X86_V4 AVX512_ICL AVX512_SPR",  # no AVX2/FMA3/AVX-512 in NumPy's kernels
+    "OPENCV_CPU_DISABLE": "AVX512-SKX,AVX2,FP16,AVX,SSE4.2,SSE4.1",  # OpenCV's baseline kernels only
     "NUMBA_CPU_NAME": "generic",  # Numba's kernels for any x86-64
     "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1",
 }  # fmt: skip
