@@ -8,12 +8,14 @@ also dispatches by CPU, give the same bits at every width for everything simroad
 calls (``tests/experiments/test_reproducible.py`` reruns with them restricted), and
 on CPUs without IPP (ARM). Without IPP simroad is no slower (``make bench``).
 
-OpenCV keeps the switch per thread: importing simroad switches IPP off in the
-importing thread, and :class:`simroad.envs.RoadCamEnv` switches it off again on the
-thread of each ``reset`` (a vector env's or a user's worker thread). With
+OpenCV reads ``OPENCV_IPP`` once, when IPP is first asked for: importing simroad sets
+it to ``disabled`` for that moment (OpenCV's warning about it silenced, the variable
+removed again, so child processes inherit nothing), which turns IPP off in every
+thread. Where OpenCV had already read it (IPP used before simroad was imported), the
+switch is only per thread: importing simroad turns IPP off in the importing thread,
+and :class:`simroad.envs.RoadCamEnv` again on the thread of each ``reset``. With
 ``OPENCV_IPP`` set in the environment (``avx2``, ``sse42``, ...) simroad leaves IPP as
-OpenCV configured it; frames may then differ between machines. (simroad does not set
-``OPENCV_IPP=disabled`` itself: OpenCV logs a warning for it in every process.)
+OpenCV configured it; frames may then differ between machines.
 """
 
 from __future__ import annotations
@@ -29,7 +31,25 @@ IPP_ENV = "OPENCV_IPP"
 
 
 def opencv_without_ipp() -> None:
-    """Switch OpenCV's IPP path off in the calling thread, unless the user configured
-    it (:data:`IPP_ENV`)."""
-    if IPP_ENV not in os.environ:
-        cv2.ipp.setUseIPP(False)
+    """Switch OpenCV's IPP path off in every thread if OpenCV has not set it up yet, and
+    in the calling thread in any case, unless the user configured it (:data:`IPP_ENV`)."""
+    global _tried
+    if IPP_ENV in os.environ:
+        return
+    if not _tried:
+        _tried = True
+        logging = getattr(cv2.utils, "logging", None)
+        level = logging.getLogLevel() if logging is not None else None
+        os.environ[IPP_ENV] = "disabled"
+        try:
+            if logging is not None:  # OpenCV warns that the variable turned IPP off
+                logging.setLogLevel(logging.LOG_LEVEL_ERROR)
+            cv2.ipp.useIPP()  # the first question sets IPP up, reading the variable
+        finally:
+            del os.environ[IPP_ENV]
+            if logging is not None:
+                logging.setLogLevel(level)
+    cv2.ipp.setUseIPP(False)
+
+
+_tried = False
