@@ -14,8 +14,8 @@ unexport PYTHONDONTWRITEBYTECODE
 help:
 	@echo "make demo     set up .venv and run the main job: a small ablation (writes runs/demo)"
 	@echo "make paper    the paper's experiment in closed loop, paired seeds on evaluation worlds (648 episodes, the longest job; runs/paper)"
-	@echo "make test     set up .venv with test extras; lint (ruff), types (mypy), then the whole test suite (about 7.5 minutes on 2 idle cores, warm caches)"
-	@echo "make test-fast  lint, types and the tests not marked slow (the edit loop: about 2 minutes on 2 idle cores, warm caches)"
+	@echo "make test     set up .venv with test extras; lint (ruff), types (mypy), then the whole test suite (about 4 minutes on 2 idle cores, warm caches)"
+	@echo "make test-fast  lint, types and the tests not marked slow (the edit loop: about 1 minute on 2 idle cores, warm caches)"
 	@echo "make lint     ruff check, ruff format --check and mypy only"
 	@echo "make bench    run the benchmarks (medians and side-by-side ratios)"
 	@echo "make figures  regenerate the pictures in docs/"
