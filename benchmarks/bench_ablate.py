@@ -1,5 +1,9 @@
 """Sweep throughput: episodes per minute with 1 vs 2 local workers, and the Ray
-backend's overhead against the local pool on the same 2 cores."""
+backend's overhead against the local pool on the same 2 cores.
+
+Every run starts as a user's first sweep in a process would: the in-process run (one
+worker) with no world cached (:mod:`simroad.envs._world_cache`), so that it does not
+reuse the worlds an earlier run of this benchmark built."""
 
 from __future__ import annotations
 
@@ -12,6 +16,7 @@ import numpy as np
 
 
 def main() -> None:
+    from simroad.envs import _world_cache
     from simroad.experiments.ablate import run_ablation
     from simroad.experiments.grid import AblationGrid
 
@@ -32,6 +37,7 @@ def main() -> None:
     for _ in range(2):  # alternate the candidates, twice
         for name, kw in runs.items():
             out = tempfile.mkdtemp(prefix="simroad-bench-")
+            _world_cache.clear()
             t0 = time.perf_counter()
             run_ablation(grid, out, progress=False, **kw)
             times[name].append(time.perf_counter() - t0)
