@@ -38,7 +38,7 @@ def opencv_without_ipp() -> None:
         return
     if not _tried:
         _tried = True
-        logging = getattr(cv2.utils, "logging", None)
+        logging = getattr(getattr(cv2, "utils", None), "logging", None)
         level = logging.getLogLevel() if logging is not None else None
         os.environ[IPP_ENV] = "disabled"
         try:
