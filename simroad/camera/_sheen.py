@@ -22,14 +22,12 @@ the ground rows (in linear radiance, from and back to sRGB by table lookups).
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
-from collections.abc import Callable, Hashable
+import functools
 
 import numpy as np
 from numba import njit
 
-from simroad.camera.geometry import PinholeCamera
+from simroad.camera.geometry import CameraConfig, PinholeCamera
 from simroad.camera.sky import SkySpec, camera_directions, sky_image, sky_radiance
 from simroad.core.radiometry import DECODE_TABLE, GAMMA
 
@@ -67,36 +65,32 @@ def sheen_map(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
     return np.ascontiguousarray(out)
 
 
-_KEPT = 16  # images kept by :func:`_kept` (~0.7 MB each at 320 x 180)
-_images: OrderedDict[Hashable, np.ndarray] = OrderedDict()
-_lock = threading.Lock()
-
-
-def _kept(key: Hashable, compute: Callable[[], np.ndarray]) -> np.ndarray:
-    """``compute()``, read-only, computed once for the last :data:`_KEPT` keys."""
-    with _lock:
-        hit = _images.get(key)
-        if hit is not None:
-            _images.move_to_end(key)
-            return hit
-    out = compute()
-    out.setflags(write=False)
-    with _lock:
-        _images[key] = out
-        while len(_images) > _KEPT:
-            _images.popitem(last=False)
-    return out
-
-
 def renderer_sky(camera: PinholeCamera, sky: SkySpec) -> np.ndarray:
     """``sky_image(camera, sky, heading=0.0)`` (read-only), computed once for a mounting
     and a sky: a reset of a world seen before draws the same sky."""
-    return _kept(("sky", camera.config, sky), lambda: sky_image(camera, sky, heading=0.0))
+    return _sky_image(camera.config, sky)
 
 
 def renderer_sheen(camera: PinholeCamera, sky: SkySpec, r0: int) -> np.ndarray:
     """``sheen_map(camera, sky, r0)`` (read-only), computed once for a mounting and a sky."""
-    return _kept(("sheen", camera.config, sky, int(r0)), lambda: sheen_map(camera, sky, r0))
+    return _sheen_map(camera.config, sky, int(r0))
+
+
+# Keyed by the camera's config: neither image depends on the pose (heading 0). ~0.7 MB
+# each at 320 x 180.
+@functools.lru_cache(maxsize=8)
+def _sky_image(config: CameraConfig, sky: SkySpec) -> np.ndarray:
+    return _read_only(sky_image(PinholeCamera(config), sky, heading=0.0))
+
+
+@functools.lru_cache(maxsize=8)
+def _sheen_map(config: CameraConfig, sky: SkySpec, r0: int) -> np.ndarray:
+    return _read_only(sheen_map(PinholeCamera(config), sky, r0))
+
+
+def _read_only(image: np.ndarray) -> np.ndarray:
+    image.setflags(write=False)
+    return image
 
 
 @njit(cache=True, nogil=True)

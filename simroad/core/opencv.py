@@ -28,6 +28,7 @@ __all__ = ["IPP_ENV", "opencv_without_ipp"]
 
 #: The environment variable by which a user configures OpenCV's IPP path themselves.
 IPP_ENV = "OPENCV_IPP"
+_tried = False  # the variable has been offered to OpenCV once
 
 
 def opencv_without_ipp() -> None:
@@ -50,6 +51,3 @@ def opencv_without_ipp() -> None:
             if logging is not None:
                 logging.setLogLevel(level)
     cv2.ipp.setUseIPP(False)
-
-
-_tried = False

@@ -5,7 +5,6 @@ simroad.camera._sheen)."""
 from __future__ import annotations
 
 import hashlib
-from collections import OrderedDict
 
 import numpy as np
 import pytest
@@ -22,10 +21,11 @@ STEPS = 3
 
 
 @pytest.fixture(autouse=True)
-def _nothing_cached(monkeypatch):
+def _nothing_cached():
     """Each test starts with no world and no sky image cached."""
     _world_cache.clear()
-    monkeypatch.setattr(_sheen, "_images", OrderedDict())
+    _sheen._sky_image.cache_clear()
+    _sheen._sheen_map.cache_clear()
 
 
 def _digest(obs: np.ndarray, info: dict) -> str:
